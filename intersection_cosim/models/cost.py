@@ -1,0 +1,84 @@
+"""Running-cost terms of the paper, Eqs. 13-24, vectorised over any array shape (e.g. horizon).
+
+All functions take numpy arrays (or scalars) and broadcast. Speeds in m/s, distances in m,
+times in s. These are the *true* costs; the game solvers convexify them but always judge a step
+by these functions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from intersection_cosim.models.settings import ModelSettings
+
+
+def longitudinal_ttc(gap, v, v_lead):
+    """[s] TTC_log = gap / (v - v_LV) (Eqs. 16-17); +inf where the host is not closing in.
+
+    gap [m] is the bumper-to-bumper distance to the leading vehicle (LV), v and v_lead [m/s].
+    """
+    gap, dv = np.broadcast_arrays(np.asarray(gap, float), np.asarray(v, float) - np.asarray(v_lead, float))
+    out = np.full(gap.shape, np.inf)
+    closing = dv > 0
+    np.divide(gap, dv, out=out, where=closing)
+    return out if out.ndim else float(out)
+
+
+def longitudinal_safety_cost(gap, v, v_lead, eps):
+    """J_s-log = gamma_log / (TTC_log^2 + eps) (Eqs. 15-18); gamma_log = 0 when not closing.
+
+    Dimensionless cost [1/s^2 scaled]; eps [s^2] > 0.
+    """
+    ttc = np.asarray(longitudinal_ttc(gap, v, v_lead), float)
+    out = np.where(np.isfinite(ttc), 1.0 / (np.square(np.where(np.isfinite(ttc), ttc, 0.0)) + eps), 0.0)
+    return out if out.ndim else float(out)
+
+
+def time_to_conflict_point(distance, v, speed_floor=0.1):
+    """[s] TCP = distance to the conflict point / speed (Eqs. 21-22).
+
+    distance [m] is signed (negative once the vehicle is past the point); the speed [m/s] is
+    floored at ``speed_floor`` so a stopped vehicle has a large, finite TCP.
+    """
+    out = np.asarray(distance, float) / np.maximum(np.asarray(v, float), speed_floor)
+    return out if out.ndim else float(out)
+
+
+def lateral_ttc(tcp_i, tcp_j):
+    """[s] TTC_lat = TCP_i - TCP_j (Eq. 20): how far apart in time the two reach the point."""
+    out = np.asarray(tcp_i, float) - np.asarray(tcp_j, float)
+    return out if out.ndim else float(out)
+
+
+def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
+    """J_s-lat = 1 / (TTC_lat^2 + eps) (Eq. 19), zero where ``active`` is False.
+
+    ``active`` is False once either vehicle has passed the conflict point: the pair then has no
+    lateral cost (paper-notes.md).
+    """
+    ttc = np.asarray(lateral_ttc(tcp_i, tcp_j), float)
+    out = np.where(active, 1.0 / (np.square(ttc) + eps), 0.0)
+    return out if out.ndim else float(out)
+
+
+def lane_keeping_cost(lateral_offset, heading_error, k_y, k_phi):
+    """J_s-lk = k_y (dy)^2 + k_phi (dphi)^2 (Eq. 23); dy [m], dphi [rad]."""
+    out = k_y * np.square(np.asarray(lateral_offset, float)) + k_phi * np.square(np.asarray(heading_error, float))
+    return out if out.ndim else float(out)
+
+
+def efficiency_cost(v, v_max, k_e):
+    """J_e = k_e (v - v_max)^2 (Eq. 24); v, v_max [m/s], k_e [s^2/m^2]."""
+    out = k_e * np.square(np.asarray(v, float) - v_max)
+    return out if out.ndim else float(out)
+
+
+def safety_cost(j_log, j_lat, j_lk, settings: ModelSettings):
+    """J_s = k_log J_log + k_lat J_lat + k_lk J_lk (Eq. 14)."""
+    return settings.k_log * np.asarray(j_log) + settings.k_lat * np.asarray(j_lat) + settings.k_lk * np.asarray(j_lk)
+
+
+def running_cost(kappa, j_log, j_lat, j_lk, j_e, settings: ModelSettings):
+    """J = (1 - kappa) J_s + kappa J_e (Eq. 13); kappa in [0, 1] is the aggressiveness."""
+    out = (1.0 - kappa) * safety_cost(j_log, j_lat, j_lk, settings) + kappa * np.asarray(j_e)
+    return out if np.ndim(out) else float(out)

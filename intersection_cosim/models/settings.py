@@ -1,0 +1,57 @@
+"""Model parameters of the paper's decision layer, one typed object with documented defaults.
+
+Every field can be set from a scenario file's ``[model]`` table; an unknown key is an error.
+The paper gives no numbers for most of these (paper-notes.md); the defaults are our calibration,
+chosen so that the paper's qualitative results hold (see README, "Model").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from intersection_cosim.settings import non_negative, positive
+
+
+@dataclass(frozen=True)
+class ModelSettings:
+    # --- vehicle (paper gives no dimensions; paper-notes.md "Geometry") ---
+    vehicle_length: float = 4.5  # [m] bumper to bumper
+    vehicle_width: float = 1.8  # [m] W in Eq. 8 (d = W / 4)
+    l_f: float = 1.35  # [m] centre of gravity to front axle (Eqs. 2-3)
+    l_r: float = 1.35  # [m] centre of gravity to rear axle (Eqs. 2-3)
+
+    # --- potential field, Eqs. 5-8 ---
+    a0: float = 1.0  # [-] field amplitude at kappa = 0; a = a0 * exp(kappa) (Eq. 7)
+    b: float = 0.1  # [-] widening slope of the field with arc length when delta_f = 0 (Eq. 8)
+    c: float = 0.5  # [1/rad] gain of |delta_f| in the widening (Eq. 8)
+    t_p: float = 3.0  # [s] preview time of the prediction and of the field (Eq. 7)
+    straight_steer: float = 1e-3  # [rad] below this |delta_f| the straight-line field form is used
+    gamma_sf: float = 1.0  # [-] safe value of Gamma_cp; the ETM triggers a game above it (Eq. 9, 39)
+
+    # --- running cost, Eqs. 13-24 ---
+    eps: float = 0.25  # [s^2] epsilon in J_log and J_lat (Eqs. 15, 19)
+    k_log: float = 1.0  # [-] weight of longitudinal safety J_log (Eq. 14)
+    k_lat: float = 1.0  # [-] weight of lateral safety J_lat (Eq. 14)
+    k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
+    k_y_lk: float = 0.05  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23)
+    k_phi_lk: float = 0.5  # [1/rad^2] weight of the heading error in J_lk (Eq. 23)
+    k_e: float = 0.04  # [s^2/m^2] weight of the speed error in J_e (Eq. 24)
+    v_max: float = 10.0  # [m/s] maximum (desired) speed in J_e (Eq. 24)
+    tcp_speed_floor: float = 0.1  # [m/s] speed floor in TCP = distance / speed (Eqs. 21-22)
+    conflict_clearance: float = 4.5  # [m] past the conflict point by this, a vehicle has passed it
+
+    # --- roles ---
+    conflict_zone_half: float = 12.0  # [m] the conflict zone is |x|, |y| <= this (Section II)
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = positive(self, "vehicle_length", "vehicle_width", "l_f", "l_r", "a0", "t_p",
+                            "eps", "v_max", "tcp_speed_floor", "conflict_zone_half",
+                            "straight_steer")
+        problems += non_negative(self, "b", "c", "gamma_sf", "k_log", "k_lat", "k_lk", "k_y_lk",
+                                 "k_phi_lk", "k_e", "conflict_clearance")
+        return problems
+
+    @property
+    def wheelbase(self) -> float:
+        """[m] l = l_f + l_r (Eqs. 3, 5-6)."""
+        return self.l_f + self.l_r

@@ -1,0 +1,1 @@
+"""The intersection net: generation (netconvert) and geometry read with sumolib."""
