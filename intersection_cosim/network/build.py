@@ -63,14 +63,18 @@ def plain_xml(spec: IntersectionSpec) -> dict[str, ET.Element]:
             "intersection.con.xml": connections}
 
 
-def netconvert_args(folder: Path) -> list[str]:
-    """netconvert's argument list for the plain files in ``folder``."""
+def netconvert_args() -> list[str]:
+    """netconvert's argument list, run inside the folder of the plain files.
+
+    Relative file names keep temporary folder names out of the net's header, so the same spec
+    always gives the same net apart from the generation time stamp.
+    """
     return [
         sumolib.checkBinary("netconvert"),
-        "--node-files", str(folder / PLAIN_FILES[0]),
-        "--edge-files", str(folder / PLAIN_FILES[1]),
-        "--connection-files", str(folder / PLAIN_FILES[2]),
-        "--output-file", str(folder / NET_FILE),
+        "--node-files", PLAIN_FILES[0],
+        "--edge-files", PLAIN_FILES[1],
+        "--connection-files", PLAIN_FILES[2],
+        "--output-file", NET_FILE,
         "--offset.disable-normalization", "true",
         "--no-turnarounds", "true",
         "--junctions.corner-detail", "8",
@@ -103,7 +107,7 @@ def build_network(out_dir: str | Path, spec: IntersectionSpec | None = None) -> 
     try:
         for name, root in plain_xml(spec).items():
             _write_xml(root, tmp / name)
-        proc = subprocess.run(netconvert_args(tmp), capture_output=True, text=True, check=False)
+        proc = subprocess.run(netconvert_args(), cwd=tmp, capture_output=True, text=True, check=False)
         if proc.returncode != 0:
             raise RuntimeError(f"netconvert failed: {proc.stderr.strip()}")
         for name in (*PLAIN_FILES, NET_FILE):
@@ -111,3 +115,11 @@ def build_network(out_dir: str | Path, spec: IntersectionSpec | None = None) -> 
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return out_dir / NET_FILE
+
+
+def net_body(net_file: str | Path) -> str:
+    """The net's XML without netconvert's leading comment (which holds the generation time)."""
+    text = Path(net_file).read_text(encoding="utf-8")
+    start = text.find("<!--")
+    end = text.find("-->", start)
+    return text[:start] + text[end + 3:] if start != -1 and end != -1 else text

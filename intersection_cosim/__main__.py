@@ -1,0 +1,5 @@
+import sys
+
+from intersection_cosim.cli import main
+
+sys.exit(main())

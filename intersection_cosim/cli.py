@@ -1,0 +1,99 @@
+"""Command-line entry point ``intersection-cosim``: thin; parsing and error reporting only.
+
+Bad input is reported as one line on stderr with exit status 2 and no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+from intersection_cosim import __version__
+from intersection_cosim.errors import InputError
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # argparse's own errors: one line, status 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="intersection-cosim", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log warnings and progress")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    net = sub.add_parser("net", help="generate the intersection net with netconvert")
+    net.add_argument("--out", default="sumo_networks", help="output folder (default: sumo_networks)")
+    net.add_argument("--junction-type", default="priority",
+                     help="priority (default), allway_stop, traffic_light or right_before_left")
+    net.add_argument("--approach-length", type=_positive_float, default=150.0,
+                     help="[m] distance from the centre to each arm's end (default 150)")
+
+    run = sub.add_parser("run", help="run one scenario headless in SUMO")
+    run.add_argument("scenario", help="scenario file (TOML)")
+    run.add_argument("--controller", help="controller kind (overrides [controller] kind)")
+    run.add_argument("--out", help="output folder (default: runs/<scenario>-<controller>-seed<N>)")
+    run.add_argument("--seed", type=int, help="random seed (overrides [scenario] seed)")
+    run.add_argument("--budget-ms", type=_positive_float, help="[ms] wall-time budget per control step")
+    run.add_argument("--no-etm", action="store_true", help="play a game for every conflicting pair")
+    run.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    return parser
+
+
+def _cmd_net(args) -> int:
+    from intersection_cosim.network.build import build_network
+    from intersection_cosim.network.spec import IntersectionSpec
+
+    net = build_network(args.out, IntersectionSpec(junction_type=args.junction_type,
+                                                   approach_length=args.approach_length))
+    print(net)
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from intersection_cosim.experiments.run import run_scenario
+    from intersection_cosim.scenario import load_scenario, with_overrides
+
+    scn = load_scenario(args.scenario)
+    scn = with_overrides(scn, controller=args.controller, seed=args.seed, budget_ms=args.budget_ms,
+                         etm=False if args.no_etm else None, realtime=True if args.realtime else None)
+    out = Path(args.out) if args.out else Path("runs") / f"{scn.scenario.name}-{scn.controller.kind}-seed{scn.scenario.seed}"
+    summary = run_scenario(scn, out)
+    c = summary["counts"]
+    print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
+          f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
+    return 0
+
+
+COMMANDS = {"net": _cmd_net, "run": _cmd_run}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.ERROR,
+                        format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return COMMANDS[args.command](args)
+    except InputError as exc:
+        print(f"intersection-cosim: error: {exc.one_line()}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("intersection-cosim: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

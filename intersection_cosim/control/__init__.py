@@ -1,0 +1,1 @@
+"""Controllers: map a World snapshot to Decisions. See ``registry`` for the list."""

@@ -1,0 +1,81 @@
+"""What a controller sees (World) and what it returns (Decisions), and the Controller protocol.
+
+The simulator adapter builds a World snapshot from SUMO each control period, the step scheduler
+hands it to the controller, and the adapter writes the Decisions back. Controllers never import
+the simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.paths import MovementPath
+
+
+@dataclass
+class World:
+    """Snapshot of every vehicle in the network at ``time``; arrays are aligned with ``ids``."""
+
+    time: float  # [s] simulation time
+    ids: list[str]
+    path_ids: list[str]  # movement path each vehicle is on (see network/paths.py)
+    s: np.ndarray  # [m] arc length of the front bumper along its path
+    v: np.ndarray  # [m/s] speed
+    a: np.ndarray  # [m/s^2] acceleration over the last step
+    x: np.ndarray  # [m] front-bumper position, paper frame
+    y: np.ndarray  # [m]
+    heading: np.ndarray  # [rad] counter-clockwise from east
+    kappa: np.ndarray  # [-] aggressiveness
+    role: list[str]  # ready / passing / outside (the conflict zone)
+    lanes: list[str] = field(default_factory=list)  # SUMO lane id of each vehicle
+    exit_choices: dict[str, tuple[str, ...]] = field(default_factory=dict)  # vehicle -> exit lanes still open
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+@dataclass
+class Decisions:
+    """A controller's output for one control period."""
+
+    accel: dict[str, float] = field(default_factory=dict)  # [m/s^2] per controlled vehicle
+    exit_lane: dict[str, str] = field(default_factory=dict)  # chosen exit lane per vehicle
+    games: int = 0  # games played this step
+    iterations: int = 0  # equilibrium iterations (summed over games)
+    pairs: list[tuple[str, str]] = field(default_factory=list)  # pairs that played a game
+    fallback: bool = False  # the decisions are the scheduler's fallback
+    note: str = ""  # why a fallback was used
+
+
+@dataclass(frozen=True)
+class ControlContext:
+    """What a controller gets once, before the first step."""
+
+    paths: dict[str, MovementPath]
+    model: ModelSettings
+    control_period: float  # [s]
+    solver: object  # the controller's validated [controller.solver] settings (or None)
+    etm: bool  # event-triggered mechanism on
+
+
+class Controller(Protocol):
+    """A decision layer. A new controller is a new module plus a registry entry."""
+
+    #: SUMO junction type of the net this controller runs on.
+    junction_type: str
+    #: True if the controller commands the vehicles (SUMO's own right of way is then switched off).
+    controls_vehicles: bool
+
+    def setup(self, context: ControlContext) -> None: ...
+
+    def decide(self, world: World, deadline: float) -> Decisions:
+        """Decisions for the next period; ``deadline`` is a ``time.perf_counter()`` value [s]."""
+        ...
+
+    def fallback(self, world: World) -> Decisions:
+        """Safe decisions when ``decide`` misses its deadline or fails."""
+        ...

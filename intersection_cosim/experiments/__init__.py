@@ -1,0 +1,1 @@
+"""Runs of scenarios: single runs now; sweeps and executors build on them."""

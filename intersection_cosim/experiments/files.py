@@ -1,0 +1,82 @@
+"""SUMO input files of a run: the route file and the ``.sumocfg`` that sumo-gui opens too."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.network.spec import LANE_INDEX
+from intersection_cosim.scenario.model import Scenario
+
+ROUTE_FILE = "scenario.rou.xml"
+SUMOCFG_FILE = "scenario.sumocfg"
+SSM_THRESHOLDS = (3.0, 3.0, 2.0)  # TTC [s], DRAC [m/s^2], PET [s]: SUMO's defaults, for shares
+SSM_RECORD_THRESHOLDS = "10.0 3.0 5.0"  # record encounters up to TTC 10 s / PET 5 s
+SSM_RANGE = 50.0  # [m] SSM device search range
+
+
+def _write(root: ET.Element, path: Path) -> None:
+    ET.indent(root)
+    ET.ElementTree(root).write(path, encoding="UTF-8", xml_declaration=True)
+
+
+def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow_vehicles: list[dict]) -> None:
+    """vType ``av`` plus one ``<vehicle>`` per hand-placed and flow-generated vehicle, by depart."""
+    m = scn.model
+    root = ET.Element("routes")
+    ET.SubElement(root, "vType", id="av", length=f"{m.vehicle_length:g}", width=f"{m.vehicle_width:g}",
+                  minGap="2.0", accel="2.6", decel="4.5", emergencyDecel="9.0", sigma="0",
+                  maxSpeed=f"{m.v_max:g}", speedFactor="1", tau="1.0")
+    entries = []
+    for v in scn.vehicles:
+        p = paths[v.path_id]
+        approach_len = p.lane_starts[1]
+        pos = min(v.s0, approach_len - 0.1)
+        attrs = {"id": v.id, "type": "av", "depart": f"{v.depart:g}",
+                 "departLane": str(LANE_INDEX[v.lane]), "departPos": f"{pos:.2f}",
+                 "departSpeed": f"{v.speed:g}", "arrivalPos": f"{scn.scenario.exit_distance:g}",
+                 "insertionChecks": "none"}
+        if v.exit_lane is not None:
+            attrs["arrivalLane"] = str(LANE_INDEX[v.exit_lane])
+        entries.append((v.depart, v.id, attrs, f"{p.approach}_in {p.exit_arm}_out"))
+    for fv in flow_vehicles:
+        from intersection_cosim.network.spec import exit_arm
+
+        approach_len = paths[next(pid for pid in paths if pid.startswith(f"{fv['approach']}_"))].lane_starts[1]
+        pos = 0.0 if fv["distance"] is None else max(0.0, approach_len - fv["distance"])
+        attrs = {"id": fv["id"], "type": "av", "depart": f"{fv['depart']:.2f}",
+                 "departLane": str(LANE_INDEX[fv["lane"]]), "departPos": f"{pos:.2f}",
+                 "departSpeed": "max", "arrivalPos": f"{scn.scenario.exit_distance:g}"}
+        entries.append((fv["depart"], fv["id"], attrs,
+                        f"{fv['approach']}_in {exit_arm(fv['approach'], fv['movement'])}_out"))
+    entries.sort(key=lambda e: (e[0], e[1]))
+    for _, _, attrs, edges in entries:
+        el = ET.SubElement(root, "vehicle", attrs)
+        ET.SubElement(el, "route", edges=edges)
+    _write(root, path)
+
+
+def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
+    """A config with every option of the run; ``sumo-gui -c`` on it replays the scenario."""
+    s = scn.scenario
+    root = ET.Element("configuration")
+    sections = {
+        "input": {"net-file": net_file, "route-files": ROUTE_FILE},
+        "time": {"begin": "0", "end": f"{s.duration + s.drain:g}", "step-length": f"{s.step_length:g}"},
+        "processing": {"collision.check-junctions": "true", "collision.action": "warn",
+                       "collision.mingap-factor": "0", "time-to-teleport": "-1",
+                       "default.speeddev": "0"},
+        "random_number": {"seed": str(s.seed)},
+        "output": {"tripinfo-output": "tripinfo.xml", "tripinfo-output.write-unfinished": "true",
+                   "collision-output": "collisions.xml"},
+        "ssm_device": {"device.ssm.probability": "1", "device.ssm.measures": "TTC DRAC PET",
+                       "device.ssm.thresholds": SSM_RECORD_THRESHOLDS, "device.ssm.range": f"{SSM_RANGE:g}",
+                       "device.ssm.file": "ssm.xml", "device.ssm.trajectories": "false"},
+        "report": {"no-warnings": "true", "no-step-log": "true", "duration-log.disable": "true"},
+    }
+    for section, options in sections.items():
+        sec = ET.SubElement(root, section)
+        for key, value in options.items():
+            ET.SubElement(sec, key, value=value)
+    _write(root, path)

@@ -1,0 +1,1 @@
+"""Metrics, CSV tables and figures of runs and sweeps."""

@@ -1,0 +1,94 @@
+"""Per-vehicle and per-pair metrics of a run, computed from its trajectories and SUMO's outputs.
+
+``min_ttc`` follows the paper's definitions: for a following pair TTC_log = gap / closing speed
+(Eqs. 16-17); for a cross or confluence pair TTC_lat = |TCP_a - TCP_b| with TCP = distance to the
+conflict point / speed (Eqs. 20-22), while neither vehicle has passed the point.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from intersection_cosim.models.cost import lateral_ttc, longitudinal_ttc, time_to_conflict_point
+from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.paths import MovementPath
+
+VEHICLE_COLUMNS = ["vehicle", "approach", "movement", "kappa", "depart", "arrival", "travel_time",
+                   "time_loss", "exit_lane", "collided"]
+PAIR_COLUMNS = ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "min_ttc_ssm", "pet_ssm", "game_steps"]
+
+
+def vehicle_table(infos: dict, tripinfo: pd.DataFrame, exit_lanes: dict[str, str],
+                  collisions: pd.DataFrame) -> pd.DataFrame:
+    """vehicles.csv: travel_time and time_loss are tripinfo's ``duration`` and ``timeLoss`` [s]."""
+    trip = tripinfo.set_index("vehicle")
+    collided = set(collisions["collider"]) | set(collisions["victim"])
+    rows = []
+    for vid, info in infos.items():
+        t = trip.loc[vid] if vid in trip.index else None
+        arrived = t is not None and t["arrival"] >= 0
+        rows.append({
+            "vehicle": vid, "approach": info.approach, "movement": info.movement, "kappa": info.kappa,
+            "depart": t["depart"] if t is not None else np.nan,
+            "arrival": t["arrival"] if arrived else np.nan,
+            "travel_time": t["duration"] if arrived else np.nan,
+            "time_loss": t["time_loss"] if arrived else np.nan,
+            "exit_lane": exit_lanes.get(vid, ""), "collided": vid in collided,
+        })
+    return pd.DataFrame(rows, columns=VEHICLE_COLUMNS)
+
+
+def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSettings) -> float:
+    """[s] minimum TTC of one conflicting pair over the time both are in the network.
+
+    ``a`` and ``b`` are the two vehicles' trajectory rows (time, s, speed) on common times, with
+    ``conflict`` oriented so that ``s_a`` belongs to ``a``.
+    """
+    sa, sb = a["s"].to_numpy(), b["s"].to_numpy()
+    va, vb = a["speed"].to_numpy(), b["speed"].to_numpy()
+    if conflict.kind == "following":
+        a_leads = sa >= sb
+        s_lead, s_follow = np.where(a_leads, sa, sb), np.where(a_leads, sb, sa)
+        v_lead, v_follow = np.where(a_leads, va, vb), np.where(a_leads, vb, va)
+        shared_end = min(conflict.s_a, conflict.s_b)
+        on_shared = (s_follow <= shared_end) & (s_lead - model.vehicle_length <= shared_end)
+        gap = s_lead - s_follow - model.vehicle_length
+        ttc = np.asarray(longitudinal_ttc(gap, v_follow, v_lead), float)[on_shared]
+    else:
+        before = (sa < conflict.s_a) & (sb < conflict.s_b)
+        tcp_a = time_to_conflict_point(conflict.s_a - sa, va, model.tcp_speed_floor)
+        tcp_b = time_to_conflict_point(conflict.s_b - sb, vb, model.tcp_speed_floor)
+        ttc = np.abs(np.asarray(lateral_ttc(tcp_a, tcp_b), float))[before]
+    ttc = ttc[np.isfinite(ttc)]
+    return float(ttc.min()) if ttc.size else np.nan
+
+
+def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str, MovementPath],
+               conflicts: dict, model: ModelSettings, ssm: pd.DataFrame,
+               game_steps: dict[tuple[str, str], int]) -> pd.DataFrame:
+    """pairs.csv: one row per pair of vehicles whose paths conflict and who met in the network."""
+    by_vehicle = {vid: g.set_index("time")[["s", "speed"]] for vid, g in traj.groupby("vehicle", sort=True)}
+    spans = {vid: (g.index.min(), g.index.max()) for vid, g in by_vehicle.items()}
+    ssm_key = ssm.assign(a=ssm[["ego", "foe"]].min(axis=1), b=ssm[["ego", "foe"]].max(axis=1)) if len(ssm) else None
+    rows = []
+    ids = sorted(by_vehicle)
+    for i, va in enumerate(ids):
+        for vb in ids[i + 1:]:
+            if spans[va][1] < spans[vb][0] or spans[vb][1] < spans[va][0]:
+                continue
+            conflict = conflicts.get((final_paths.get(va), final_paths.get(vb)))
+            if conflict is None:
+                continue
+            common = by_vehicle[va].join(by_vehicle[vb], how="inner", lsuffix="_a", rsuffix="_b")
+            a = common[["s_a", "speed_a"]].set_axis(["s", "speed"], axis=1)
+            b = common[["s_b", "speed_b"]].set_axis(["s", "speed"], axis=1)
+            ttc_ssm = pet_ssm = np.nan
+            if ssm_key is not None:
+                enc = ssm_key[(ssm_key["a"] == va) & (ssm_key["b"] == vb)]
+                if len(enc):
+                    ttc_ssm, pet_ssm = enc["min_ttc"].min(), enc["pet"].min()
+            rows.append({"vehicle_a": va, "vehicle_b": vb, "conflict": conflict.kind,
+                         "min_ttc": pair_min_ttc(conflict, a, b, model), "min_ttc_ssm": ttc_ssm,
+                         "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0))})
+    return pd.DataFrame(rows, columns=PAIR_COLUMNS)

@@ -1,0 +1,61 @@
+"""Readers of SUMO's own output files: tripinfo, SSM device and collisions.
+
+These are measurements independent of ours; the run writes them next to our CSVs.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pandas as pd
+
+
+def _float(text: str | None) -> float:
+    try:
+        value = float(text)  # "NA" and None become NaN
+    except (TypeError, ValueError):
+        return math.nan
+    return value
+
+
+def read_tripinfo(path: str | Path) -> pd.DataFrame:
+    """One row per vehicle: depart, arrival, duration, time_loss [s], arrival_lane (SUMO id)."""
+    rows = []
+    for _, el in ET.iterparse(path):
+        if el.tag == "tripinfo":
+            rows.append({"vehicle": el.get("id"), "depart": _float(el.get("depart")),
+                         "arrival": _float(el.get("arrival")), "duration": _float(el.get("duration")),
+                         "time_loss": _float(el.get("timeLoss")), "arrival_lane": el.get("arrivalLane"),
+                         "vaporized": el.get("vaporized", "")})
+    return pd.DataFrame(rows, columns=["vehicle", "depart", "arrival", "duration", "time_loss",
+                                       "arrival_lane", "vaporized"])
+
+
+def read_ssm(path: str | Path) -> pd.DataFrame:
+    """One row per SSM encounter: ego, foe, min_ttc [s], pet [s], max_drac [m/s^2] (NaN if none)."""
+    rows = []
+    if not Path(path).exists():
+        return pd.DataFrame(columns=["ego", "foe", "min_ttc", "pet", "max_drac"])
+    for _, el in ET.iterparse(path):
+        if el.tag == "conflict":
+            ttc = el.find("minTTC")
+            pet = el.find("PET")
+            drac = el.find("maxDRAC")
+            rows.append({"ego": el.get("ego"), "foe": el.get("foe"),
+                         "min_ttc": _float(ttc.get("value")) if ttc is not None else math.nan,
+                         "pet": _float(pet.get("value")) if pet is not None else math.nan,
+                         "max_drac": _float(drac.get("value")) if drac is not None else math.nan})
+    return pd.DataFrame(rows, columns=["ego", "foe", "min_ttc", "pet", "max_drac"])
+
+
+def read_collisions(path: str | Path) -> pd.DataFrame:
+    """One row per collision SUMO detected: time [s], collider, victim, type, lane."""
+    rows = []
+    if Path(path).exists():
+        for _, el in ET.iterparse(path):
+            if el.tag == "collision":
+                rows.append({"time": _float(el.get("time")), "collider": el.get("collider"),
+                             "victim": el.get("victim"), "type": el.get("type"), "lane": el.get("lane")})
+    return pd.DataFrame(rows, columns=["time", "collider", "victim", "type", "lane"])

@@ -1,0 +1,1 @@
+"""The simulator layer: the libsumo adapter (the only libsumo import) and the step scheduler."""

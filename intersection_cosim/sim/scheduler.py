@@ -1,0 +1,75 @@
+"""The deadline-monitored step scheduler: the timing budget of a hardware-in-the-loop box.
+
+Each control step it hands the World to the controller with a deadline, measures the wall time
+the controller takes, and, when the controller raises or overruns its budget, applies the
+controller's safe fallback instead and records that it did. ``realtime`` paces the simulation to
+the wall clock, as the HIL box runs.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+from intersection_cosim.control.base import Controller, Decisions, World
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """One row of steps.csv."""
+
+    time: float  # [s] simulation time of the control step
+    compute_ms: float  # [ms] wall time the controller took
+    games: int  # games played
+    iterations: int  # equilibrium iterations, summed over games
+    deadline_missed: bool  # compute_ms exceeded the budget
+    fallback: bool  # the applied decisions are the fallback
+
+
+class StepScheduler:
+    def __init__(self, controller: Controller, budget_ms: float, realtime: bool = False):
+        self.controller = controller
+        self.budget_s = budget_ms / 1000.0  # [s]
+        self.realtime = realtime
+        self._wall_start: float | None = None
+
+    def step(self, world: World) -> tuple[Decisions, StepRecord]:
+        start = time.perf_counter()
+        deadline = start + self.budget_s
+        failed = False
+        try:
+            decisions = self.controller.decide(world, deadline)
+        except Exception as exc:  # a controller bug or solver crash must not stop the run
+            log.warning("t=%.2f s: controller raised %s: %s; applying the fallback", world.time,
+                        type(exc).__name__, exc)
+            decisions, failed = None, True
+        elapsed = time.perf_counter() - start
+        missed = elapsed > self.budget_s
+        if failed or missed:
+            if missed:
+                log.warning("t=%.2f s: controller took %.1f ms, budget %.1f ms; applying the fallback",
+                            world.time, elapsed * 1e3, self.budget_s * 1e3)
+            played = decisions
+            decisions = self.controller.fallback(world)
+            decisions.fallback = True
+            if played is not None:
+                decisions.games, decisions.iterations = played.games, played.iterations
+                decisions.pairs = played.pairs
+        record = StepRecord(time=world.time, compute_ms=elapsed * 1e3, games=decisions.games,
+                            iterations=decisions.iterations, deadline_missed=missed,
+                            fallback=decisions.fallback)
+        return decisions, record
+
+    def pace(self, sim_time: float) -> None:
+        """With ``realtime``, sleep until the wall clock has caught up with ``sim_time`` [s]."""
+        if not self.realtime:
+            return
+        now = time.perf_counter()
+        if self._wall_start is None:
+            self._wall_start = now - sim_time
+        ahead = sim_time - (now - self._wall_start)
+        if ahead > 0:
+            time.sleep(ahead)

@@ -1,0 +1,208 @@
+"""The libsumo adapter: the only module of the package that imports the simulator.
+
+It starts SUMO from a ``.sumocfg`` (the same file opens the scenario in sumo-gui), keeps the
+explicit order of one simulation step in :meth:`SumoSimulation.advance`: read (one subscription
+read per step) -> the caller decides -> write -> step, and turns SUMO's state into
+:class:`~intersection_cosim.control.base.World` snapshots in the paper's frame.
+
+libsumo runs one simulation per process; :func:`close` is always called in a ``finally``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import libsumo
+import numpy as np
+
+from intersection_cosim.control.base import Decisions, World
+from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.network.spec import LANE_NAME
+
+_VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
+         libsumo.VAR_LANE_ID, libsumo.VAR_LANEPOSITION)
+
+SPEED_MODE_CONTROLLED = 0  # every SUMO check off: no safe speed, no right of way, no accel limits
+LANE_CHANGE_MODE_CONTROLLED = 0  # SUMO makes no lane change of its own
+
+
+def sumo_version() -> str:
+    return libsumo.getVersion()[1]
+
+
+@dataclass
+class VehicleInfo:
+    """Static facts about a vehicle the adapter tracks."""
+
+    approach: str
+    lane: str  # approach lane name
+    movement: str
+    kappa: float
+    intended_path: str  # path id used until the vehicle is in the junction
+    controlled: bool
+    exit_lane: str | None = None  # exit lane to enforce at the junction entry (None: SUMO's)
+    start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
+
+
+@dataclass
+class SumoSimulation:
+    """One running SUMO instance, driven step by step."""
+
+    paths: dict[str, MovementPath]
+    vehicles: dict[str, VehicleInfo]
+    step_length: float  # [s]
+    time: float = 0.0  # [s]
+    states: dict[str, dict] = field(default_factory=dict)
+    current_path: dict[str, str] = field(default_factory=dict)
+    exit_lane_taken: dict[str, str] = field(default_factory=dict)
+    departed: dict[str, float] = field(default_factory=dict)
+    arrived: dict[str, float] = field(default_factory=dict)
+    commands: dict[str, float] = field(default_factory=dict)  # [m/s^2] held accel per vehicle
+    _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
+
+    def start(self, sumocfg: str, extra: list[str] | None = None) -> None:
+        for pid, p in self.paths.items():
+            for lane in p.lanes[1:]:
+                self._lane_to_paths.setdefault(lane, []).append(pid)
+        libsumo.start(["sumo", "-c", sumocfg, "--no-step-log", "true", *(extra or [])])
+
+    # --- one step --------------------------------------------------------------------------
+    def advance(self) -> None:
+        """Step SUMO once, then register departures and arrivals and read every vehicle's state."""
+        libsumo.simulationStep()
+        self.time = libsumo.simulation.getTime()
+        for vid in libsumo.simulation.getDepartedIDList():
+            self.departed[vid] = self.time - self.step_length
+            libsumo.vehicle.subscribe(vid, _VARS)
+            info = self.vehicles.get(vid)
+            if info is None:
+                continue
+            self.current_path[vid] = info.intended_path
+            if info.controlled:
+                libsumo.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)
+                libsumo.vehicle.setLaneChangeMode(vid, LANE_CHANGE_MODE_CONTROLLED)
+            if info.start_s is not None:
+                lane, pos = self.paths[info.intended_path].lane_at(info.start_s)
+                libsumo.vehicle.moveTo(vid, lane, pos)
+        for vid in libsumo.simulation.getArrivedIDList():
+            self.arrived[vid] = self.time
+            self.states.pop(vid, None)
+            self.commands.pop(vid, None)
+        results = libsumo.vehicle.getAllSubscriptionResults()
+        for vid, res in results.items():
+            self.states[vid] = res
+            self._track_path(vid, res[libsumo.VAR_LANE_ID])
+        # Vehicles moved by moveTo report their new lane only after the next read; refresh them.
+        for vid in libsumo.simulation.getDepartedIDList():
+            info = self.vehicles.get(vid)
+            if info is not None and info.start_s is not None and vid in self.states:
+                self.states[vid] = {v: _get(vid, v) for v in _VARS}
+                self._track_path(vid, self.states[vid][libsumo.VAR_LANE_ID])
+
+    def _track_path(self, vid: str, lane: str) -> None:
+        """Resolve the vehicle's movement path from its lane and enforce its exit lane.
+
+        On the approach lane the path is the intended one; a junction-internal lane belongs to
+        exactly one connection, so it fixes the path; on the exit lane the path stays as fixed.
+        """
+        info = self.vehicles.get(vid)
+        if info is None:
+            return
+        if lane.startswith(":"):
+            pid = self._lane_to_paths[lane][0]
+            if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane:
+                self._switch_exit_lane(vid, lane, pid, info)
+                return
+            self.current_path[vid] = pid
+        elif "_out_" in lane and vid not in self.exit_lane_taken:
+            self.exit_lane_taken[vid] = LANE_NAME[int(lane.rsplit("_", 1)[1])]
+
+    def _switch_exit_lane(self, vid: str, lane: str, pid: str, info: VehicleInfo) -> None:
+        """Put a vehicle that entered the junction on the internal lane of its chosen connection.
+
+        The internal lanes of one approach lane's connections start at the same point, so the
+        move changes only which connection the vehicle follows (a SUMO-documented use of moveTo).
+        """
+        target_id = f"{info.approach}_{info.lane}_{info.movement}_{info.exit_lane}"
+        if target_id not in self.paths:
+            return
+        old, target = self.paths[pid], self.paths[target_id]
+        s = old.lane_starts[old.lanes.index(lane)] + libsumo.vehicle.getLanePosition(vid)
+        new_lane, new_pos = target.lane_at(min(s, target.s_exit - 0.01))
+        libsumo.vehicle.moveTo(vid, new_lane, new_pos)
+        self.current_path[vid] = target_id
+        self.states[vid] = {v: _get(vid, v) for v in _VARS}
+
+    # --- read ------------------------------------------------------------------------------
+    def world(self) -> World:
+        """A snapshot of every vehicle in the network, in the paper's frame."""
+        ids = sorted(self.states)
+        n = len(ids)
+        s = np.empty(n)
+        arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa")}
+        path_ids, roles, lanes = [], [], []
+        for i, vid in enumerate(ids):
+            st = self.states[vid]
+            pid = self.current_path[vid]
+            path = self.paths[pid]
+            lane = st[libsumo.VAR_LANE_ID]
+            start = path.lane_starts[path.lanes.index(lane)] if lane in path.lanes else 0.0
+            s[i] = start + st[libsumo.VAR_LANEPOSITION]
+            arr["v"][i] = st[libsumo.VAR_SPEED]
+            arr["a"][i] = st[libsumo.VAR_ACCELERATION]
+            arr["x"][i], arr["y"][i] = st[libsumo.VAR_POSITION]
+            arr["heading"][i] = math.radians(90.0 - st[libsumo.VAR_ANGLE])
+            info = self.vehicles.get(vid)
+            arr["kappa"][i] = info.kappa if info else 0.5
+            path_ids.append(pid)
+            lanes.append(lane)
+            roles.append("passing" if lane.startswith(":") else ("ready" if "_in_" in lane else "outside"))
+        return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
+                     x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
+                     lanes=lanes)
+
+    # --- write -----------------------------------------------------------------------------
+    def command(self, decisions: Decisions) -> None:
+        """Take a controller's decisions: an acceleration held until the next decision, and exit lanes."""
+        for vid, accel in decisions.accel.items():
+            if vid in self.states:
+                self.commands[vid] = float(accel)
+        for vid, lane in decisions.exit_lane.items():
+            if vid in self.vehicles:
+                self.vehicles[vid].exit_lane = lane
+
+    def write(self) -> None:
+        """Write this SUMO step's speed commands: v + a * step for every commanded vehicle.
+
+        Controlled vehicles run with speed mode 0, so the speed SUMO realises at the end of the
+        step is exactly the commanded one (setSpeed every step; tests check this).
+        """
+        for vid, accel in self.commands.items():
+            v = self.states[vid][libsumo.VAR_SPEED]
+            libsumo.vehicle.setSpeed(vid, max(0.0, v + accel * self.step_length))
+
+    def collisions(self) -> list[tuple[str, str]]:
+        return [(c.collider, c.victim) for c in libsumo.simulation.getCollisions()]
+
+    def remaining(self) -> int:
+        """Vehicles still in the network or waiting to be inserted."""
+        return libsumo.simulation.getMinExpectedNumber()
+
+    @staticmethod
+    def close() -> None:
+        try:
+            libsumo.close()
+        except Exception:  # closing a simulation that failed to start
+            pass
+
+
+def _get(vid: str, var: int):
+    return {
+        libsumo.VAR_POSITION: libsumo.vehicle.getPosition,
+        libsumo.VAR_SPEED: libsumo.vehicle.getSpeed,
+        libsumo.VAR_ACCELERATION: libsumo.vehicle.getAcceleration,
+        libsumo.VAR_ANGLE: libsumo.vehicle.getAngle,
+        libsumo.VAR_LANE_ID: libsumo.vehicle.getLaneID,
+        libsumo.VAR_LANEPOSITION: libsumo.vehicle.getLanePosition,
+    }[var](vid)
