@@ -27,7 +27,7 @@ def cache_root() -> Path:
 
 def sumo_version() -> str:
     """SUMO's version string, as sumolib reports it."""
-    return str(sumolib.version.gitDescribe()) if hasattr(sumolib, "version") else "unknown"
+    return str(sumolib.version.gitDescribe()).lstrip("v") if hasattr(sumolib, "version") else "unknown"
 
 
 def cached_net(spec: IntersectionSpec | None = None) -> Path:

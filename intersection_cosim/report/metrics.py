@@ -80,7 +80,8 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
             conflict = conflicts.get((final_paths.get(va), final_paths.get(vb)))
             if conflict is None:
                 continue
-            common = by_vehicle[va].join(by_vehicle[vb], how="inner", lsuffix="_a", rsuffix="_b")
+            common = by_vehicle[va].merge(by_vehicle[vb], left_index=True, right_index=True,
+                                          suffixes=("_a", "_b"))
             a = common[["s_a", "speed_a"]].set_axis(["s", "speed"], axis=1)
             b = common[["s_b", "speed_b"]].set_axis(["s", "speed"], axis=1)
             ttc_ssm = pet_ssm = np.nan

@@ -1,0 +1,29 @@
+"""Shared pytest fixtures."""
+
+from __future__ import annotations
+
+import pytest
+
+from intersection_cosim.network.build import build_network
+
+
+@pytest.fixture(scope="session")
+def net_file(tmp_path_factory):
+    """The default intersection net, built once per test session with netconvert."""
+    return build_network(tmp_path_factory.mktemp("net"))
+
+
+@pytest.fixture(scope="session")
+def paths(net_file):
+    """Every movement path of the default net, keyed by path id."""
+    from intersection_cosim.network.paths import load_paths
+
+    return load_paths(net_file)
+
+
+@pytest.fixture(scope="session")
+def conflict_table(net_file):
+    """The default net's ConflictTable (conflict points of all path pairs as arrays)."""
+    from intersection_cosim.network.conflicts import load_conflict_table
+
+    return load_conflict_table(net_file)
