@@ -29,6 +29,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="intersection-cosim", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -50,6 +60,21 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--budget-ms", type=_positive_float, help="[ms] wall-time budget per control step")
     run.add_argument("--no-etm", action="store_true", help="play a game for every conflicting pair")
     run.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+
+    sweep = sub.add_parser("sweep", help="run a scenario over a grid of kappa values, controllers and seeds")
+    sweep.add_argument("scenario", help="scenario file (TOML)")
+    sweep.add_argument("--kappa", action="append", metavar="VEHICLE=SPEC",
+                       help="kappa values of one vehicle: a:b:step (b included), a,b,c or a; repeatable")
+    sweep.add_argument("--controller", help="controller kinds, comma-separated (default: the scenario's)")
+    sweep.add_argument("--seeds", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: the scenario's)")
+    sweep.add_argument("--out", required=True, help="sweep folder; rerunning the same command skips finished runs")
+    where = sweep.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, help="parallel local runs (default: the number of CPUs)")
+    where.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://host:8786")
+    sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
+    report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
     return parser
 
 
@@ -78,7 +103,28 @@ def _cmd_run(args) -> int:
     return 0
 
 
-COMMANDS = {"net": _cmd_net, "run": _cmd_run}
+def _cmd_sweep(args) -> int:
+    from intersection_cosim.experiments.sweep import SweepInterrupted, make_spec, run_sweep
+
+    spec = make_spec(args.scenario, args.kappa, args.controller, args.seeds)
+    try:
+        outcome = run_sweep(spec, args.out, workers=args.workers, dask_scheduler=args.dask_scheduler,
+                            progress=not args.no_progress)
+    except SweepInterrupted as exc:
+        print(f"intersection-cosim: interrupted: {exc}", file=sys.stderr)
+        return 130
+    print(outcome.line())
+    return 1 if outcome.failed else 0
+
+
+def _cmd_report(args) -> int:
+    from intersection_cosim.report.reporting import write_report
+
+    print(write_report(args.folder))
+    return 0
+
+
+COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "report": _cmd_report}
 
 
 def main(argv: list[str] | None = None) -> int:
