@@ -13,7 +13,8 @@ from intersection_cosim.models.settings import ModelSettings
 
 
 def longitudinal_ttc(gap, v, v_lead):
-    """[s] TTC_log = gap / (v - v_LV) (Eqs. 16-17); +inf where the host is not closing in.
+    """[s] TTC_log = gap / (v - v_LV) (Eqs. 16-17); +inf where the host is not closing in, and 0
+    where the gap is negative (the bodies overlap).
 
     gap [m] is the bumper-to-bumper distance to the leading vehicle (LV), v and v_lead [m/s].
     """
@@ -21,6 +22,9 @@ def longitudinal_ttc(gap, v, v_lead):
     out = np.full(gap.shape, np.inf)
     closing = dv > 0
     np.divide(gap, dv, out=out, where=closing)
+    # Overlapping bodies (gap < 0) have collided: TTC 0 whatever the speeds. Without this a
+    # negative gap gives a negative TTC whose cost *falls* as the overlap grows.
+    out = np.where(gap < 0.0, 0.0, out)
     return out if out.ndim else float(out)
 
 

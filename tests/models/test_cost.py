@@ -40,6 +40,11 @@ def test_longitudinal_safety_cost():
     # zero closing speed: gamma_log = 0, no cost (and no division by zero)
     assert longitudinal_safety_cost(20.0, 6.0, 6.0, 0.25) == 0.0
     assert longitudinal_safety_cost(0.0, 6.0, 6.0, 0.25) == 0.0
+    # overlapping bodies (negative gap): TTC 0, the largest cost 1 / eps, closing or not; the cost
+    # must not fall as the overlap grows
+    assert longitudinal_ttc(-1.0, 7.0, 5.0) == 0.0
+    assert longitudinal_safety_cost(-1.0, 7.0, 5.0, 0.25) == pytest.approx(4.0)
+    assert longitudinal_safety_cost(-3.0, 5.0, 7.0, 0.25) == pytest.approx(4.0)
     # the leader pulls away: no cost
     assert longitudinal_safety_cost(5.0, 4.0, 6.0, 0.25) == 0.0
     # a vanishing gap while closing: 1 / eps

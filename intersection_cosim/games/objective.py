@@ -1,0 +1,378 @@
+"""A player's cost over the horizon: the true value (from models.cost) and its convex model.
+
+True cost of player i for its accelerations a (N,) and the other players' planned trajectories:
+
+    C_i(a) = dt * sum_{k=1..N} [ J_i(x_k) + w_accel a_{k-1}^2 ] + dt * w_jerk * sum_k ((a_k - a_{k-1}) / dt)^2
+
+with J_i = (1 - kappa) (k_log J_log + k_lat J_lat + k_lk J_lk) + kappa J_e (Eqs. 13-14) evaluated
+at the N predicted states x_1..x_N (rectangle rule; x_0 is fixed and does not depend on a). The
+value always comes from :mod:`intersection_cosim.models.cost`; the solvers use it to accept or
+reject every step. J_lat of a cross / confluence interaction counts at step k while neither player
+has passed its conflict point by more than ``conflict_clearance`` (its switch-off is a jump of the
+true cost that no smooth model sees: the equilibrium checks find their largest gains there, by
+clearing the point one step earlier). J_log counts for the follower of a following pair only.
+J_lk is the constant ``Player.j_lk`` of the player's discrete lane choice.
+
+Convex model (the "convexification" of the SQP): J_e and the comfort terms are quadratic in a
+(speeds are affine in a) and enter exactly. J_lat (Eq. 19) and J_log (Eq. 15) are a scalar
+function f of one TTC-like quantity per step:
+
+* J_lat = f(g), f(g) = 1 / (g^2 + eps), g = TTC_lat = TCP_i - TCP_j (Eqs. 20-22);
+* J_log = h(r), h(r) = r^2 / (1 + eps r^2) for r > 0 else 0, r = 1 / TTC_log = dv / gap
+  (the same value as Eq. 15 with gamma of Eq. 18, written in the inverse TTC so that it is C^1
+  where the follower stops closing in).
+
+Gauss-Newton: g (or r) is linearised around the iterate, g ~ g0 + G (a - a0); the model keeps the
+exact slope f'(g0) G and the curvature G^T max(f''(g0), 0) G, i.e. the negative curvature of f near
+TTC_lat = 0 (|g| < sqrt(eps / 3)) and of h near contact (r^2 > 1 / (3 eps)) is dropped. The model is convex; the trust region and the line
+search of the best response make up for what it ignores.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from intersection_cosim.games.dynamics import horizon_matrices, state_offset
+from intersection_cosim.games.problem import Plan, Player, Problem, speed_cap
+from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.models.cost import (efficiency_cost, lateral_safety_cost,
+                                            longitudinal_safety_cost, running_cost,
+                                            time_to_conflict_point)
+from intersection_cosim.models.settings import ModelSettings
+
+
+EXOGENOUS = -1  # "other player" index of a non-player leader (Player.leader) in log_terms
+
+
+def _rcumsum(x: np.ndarray) -> np.ndarray:
+    """Reverse cumulative sum: out[m] = sum_{k >= m} x[k]."""
+    return x[::-1].cumsum()[::-1]
+
+
+@functools.lru_cache(maxsize=256)
+def _quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float) -> np.ndarray:
+    """Hessian of the exact quadratic terms: sum w_e (v - v_max)^2 + dt w_accel a^2 + dt jerk_w da^2."""
+    hm = horizon_matrices(n, dt)
+    Q = (2.0 * w_e * dt * dt) * hm.LtL + (2.0 * dt * w_accel) * hm.eye + (2.0 * dt * jerk_w) * hm.DtD
+    Q.setflags(write=False)
+    return Q
+
+
+class PlayerObjective:
+    """Player ``p``'s cost as a function of its own accelerations, the others' plans held fixed.
+
+    Build once per (problem, player); call :meth:`set_others` whenever the other players' plans
+    change, then :meth:`cost` (true value) and :meth:`model` / :meth:`cost_and_model` (gradient
+    and convex Hessian). Written for speed: no Python loop over the horizon, few numpy calls.
+    """
+
+    def __init__(self, problem: Problem, p: int, gs: GameSettings, ms: ModelSettings):
+        pl: Player = problem.players[p]
+        self.p, self.gs, self.ms = p, gs, ms
+        self.n, self.dt = gs.steps, gs.dt
+        dt = self.dt
+        self.hm = hm = horizon_matrices(self.n, dt)
+        self.s0, self.v0, self.kappa = float(pl.s0), float(pl.v0), float(pl.kappa)
+        self.v_max = float(pl.v_max if pl.v_max is not None else ms.v_max)  # [m/s]
+        self.v_cap = speed_cap(pl, ms.v_max)  # [m/s]
+        self.j_lk = float(pl.j_lk)
+        self.s_free = self.s0 + self.v0 * hm.t  # [m] positions at zero acceleration
+        self._offset = state_offset(self.s0, self.v0, hm)  # (v_0..v_N, s_0..s_N) at a = 0
+        self._n1 = self.n + 1
+        self.w_lat = dt * (1.0 - self.kappa) * ms.k_lat  # [s] weight of J_lat per step
+        self.w_log = dt * (1.0 - self.kappa) * ms.k_log  # [s] weight of J_log per step
+        self.w_e = dt * self.kappa * ms.k_e  # [s^3/m^2] weight of (v - v_max)^2 per step
+        self.jerk_w = gs.w_jerk / (dt * dt)  # [s^4/m^2] weight of (a_k - a_{k-1})^2
+        self._floor, self._clr, self._eps = ms.tcp_speed_floor, ms.conflict_clearance, ms.eps
+        # lateral terms: (other, s_cp own, s_cp other); following terms where p follows: (leader, offset)
+        self.lat_terms: list[tuple[int, float, float]] = []
+        self.log_terms: list[tuple[int, float]] = []
+        for it in problem.interactions:
+            if it.lateral and it.i == p:
+                self.lat_terms.append((it.j, it.s_cp_i, it.s_cp_j))
+            elif it.lateral and it.j == p:
+                self.lat_terms.append((it.i, it.s_cp_j, it.s_cp_i))
+            elif it.kind == "following" and it.i == p:
+                self.log_terms.append((it.j, it.offset))
+        self._exo = None  # a non-player leader (Player.leader): (s - length, v) over the horizon
+        if pl.leader is not None:
+            s_l, v_l = (np.asarray(x, dtype=float) for x in pl.leader)
+            if s_l.shape != (self.n,) or v_l.shape != (self.n,):
+                raise ValueError(f"player {p}: leader trajectory must have {self.n} steps")
+            self.log_terms.append((EXOGENOUS, 0.0))
+            self._exo = (s_l - ms.vehicle_length, v_l)
+        if self.w_lat <= 0.0:
+            self.lat_terms = []
+        if self.w_log <= 0.0:
+            self.log_terms = []
+        # exact quadratic part (efficiency + comfort): 1/2 a^T Q a + b0^T a + const
+        self.Q = _quadratic_part(self.n, dt, self.w_e, gs.w_accel, self.jerk_w)
+        self.b0 = (2.0 * self.w_e * (self.v0 - self.v_max)) * hm.dtLv_colsum
+        self._lat: list = []  # per lateral term: (s_cp own, TCP of the other (N,), other not passed (N,))
+        self._log: list = []  # per following term: (leader s in own frame minus length (N,), leader v (N,))
+        if self._exo is not None and self.log_terms and not self.lat_terms and len(self.log_terms) == 1:
+            self._log = [self._exo]  # nothing else to wait for: usable before set_others
+
+    @property
+    def coupled(self) -> bool:
+        """True when the cost depends on other players (the model is then only an approximation)."""
+        return bool(self.lat_terms or self.log_terms)
+
+    # ------------------------------------------------------------------ data of the others
+    def set_others(self, plans) -> None:
+        """``plans[q]`` is player q's Plan (entries of players without a term are ignored)."""
+        self._lat = []
+        for q, scp, scp_q in self.lat_terms:
+            v_q, s_q = plans[q].speeds[1:], plans[q].positions[1:]
+            tcp_q = time_to_conflict_point(scp_q - s_q, v_q, self._floor)
+            self._lat.append((scp, tcp_q, (s_q - scp_q) <= self._clr))
+        self._log = []
+        for q, offset in self.log_terms:
+            if q == EXOGENOUS:
+                self._log.append(self._exo)
+                continue
+            self._log.append((plans[q].positions[1:] + (offset - self.ms.vehicle_length),
+                              plans[q].speeds[1:]))
+
+    def plan(self, a: np.ndarray, duals: np.ndarray | None = None) -> Plan:
+        """The player's Plan for accelerations ``a`` (N,)."""
+        full = self.hm.M @ a + self._offset
+        return Plan(a, full[:self._n1], full[self._n1:], self.dt, duals)
+
+    def _vs(self, a):
+        """v_1..v_N, s_1..s_N for a (N,) or (m, N)."""
+        n1 = self._n1
+        full = (self.hm.M @ a if a.ndim == 1 else a @ self.hm.M.T) + self._offset
+        return full[..., 1:n1], full[..., n1 + 1:]
+
+    def keep_behind(self, a: np.ndarray) -> np.ndarray:
+        """[m/s^2] ``a`` changed, if needed, so the player stays behind every leader's planned
+        position (gap >= 0): a starting plan for the best response. J_log (Eq. 15) has no barrier
+        at contact (its largest value is 1 / eps at TTC = 0 and it falls again for a negative
+        gap), so a local search started from a plan that already overlaps its leader can settle
+        on driving through it; from behind, reaching the leader means climbing to 1 / eps."""
+        if not self._log:
+            return a
+        v, s = self._vs(a)
+        bound = self._log[0][0] if len(self._log) == 1 else np.minimum.reduce([b for b, _ in self._log])
+        if (s <= bound).all():
+            return a
+        dt, gs = self.dt, self.gs
+        out = np.array(a, dtype=float)
+        vk, sk = self.v0, self.s0
+        for k in range(self.n):
+            hi = (bound[k] - sk - vk * dt) / (0.5 * dt * dt)
+            lo = max(gs.a_min, -vk / dt)
+            out[k] = max(min(out[k], hi), lo)
+            sk += vk * dt + 0.5 * out[k] * dt * dt
+            vk = max(vk + out[k] * dt, 0.0)
+        return out
+
+    # ------------------------------------------------------------------ true cost
+    def cost(self, a) -> np.ndarray | float:
+        """[-] true cost C_p(a) (module docstring); ``a`` of shape (N,) or (m, N)."""
+        a = np.asarray(a, dtype=float)
+        v, s = self._vs(a)
+        j_lat = 0.0
+        for scp, tcp_q, open_q in self._lat:
+            tcp = time_to_conflict_point(scp - s, v, self._floor)
+            j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, self._eps, (s <= scp + self._clr) & open_q)
+        return self._finish(a, v, s, j_lat)
+
+    def _finish(self, a, v, s, j_lat):
+        """Add J_log, J_e, J_lk and comfort to J_lat and sum over the horizon (Eqs. 13-14)."""
+        ms = self.ms
+        j_log = 0.0
+        for s_lead, v_lead in self._log:
+            j_log = j_log + longitudinal_safety_cost(s_lead - s, v, v_lead, self._eps)
+        run = running_cost(self.kappa, j_log, j_lat, self.j_lk, efficiency_cost(v, self.v_max, ms.k_e), ms)
+        if a.ndim == 1:
+            da = a[1:] - a[:-1]
+            return self.dt * (float(run.sum()) + self.gs.w_accel * float(a @ a)
+                              + self.jerk_w * float(da @ da))
+        da = a[:, 1:] - a[:, :-1]
+        return self.dt * (run.sum(axis=-1) + self.gs.w_accel * (a * a).sum(axis=-1)
+                          + self.jerk_w * (da * da).sum(axis=-1))
+
+    # ------------------------------------------------------------------ convex model
+    def cost_and_model(self, a: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """True cost, gradient (N,) and convex Gauss-Newton Hessian (N, N) at ``a`` (N,)."""
+        v, s = self._vs(a)
+        grad = self.Q @ a + self.b0
+        H = self.Q.copy()
+        j_lat = 0.0
+        if self._lat:
+            inv = 1.0 / np.maximum(v, self._floor)
+            for scp, tcp_q, open_q in self._lat:
+                d = scp - s
+                tcp = time_to_conflict_point(d, v, self._floor)
+                active = (s <= scp + self._clr) & open_q
+                j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, self._eps, active)
+                self._lateral_model(tcp - tcp_q, d, v, inv, active, grad, H)
+        for s_lead, v_lead in self._log:
+            self._following_model(s_lead, v_lead, v, s, grad, H)
+        return self._finish(a, v, s, j_lat), grad, H
+
+    def model(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gradient (N,) and convex Gauss-Newton Hessian (N, N) of C_p at ``a``."""
+        hm = self.hm
+        grad = self.Q @ a + self.b0
+        H = self.Q.copy()
+        if self._lat or self._log:
+            v, s = self._vs(a)
+            if self._lat:
+                inv = 1.0 / np.maximum(v, self._floor)
+                for scp, tcp_q, open_q in self._lat:
+                    d = scp - s
+                    self._lateral_model(d * inv - tcp_q, d, v, inv, (s <= scp + self._clr) & open_q,
+                                        grad, H)
+            for s_lead, v_lead in self._log:
+                self._following_model(s_lead, v_lead, v, s, grad, H)
+        return grad, H
+
+    def cost_and_gradient(self, a: np.ndarray) -> tuple[float, np.ndarray]:
+        """True cost and its gradient (N,) where smooth, without forming any N x N matrix.
+
+        The Jacobians of :meth:`model` are lower-triangular with rows affine in the column index,
+        so G^T w reduces to reverse cumulative sums.
+        """
+        hm, dt = self.hm, self.dt
+        v, s = self._vs(a)
+        grad = self.Q @ a + self.b0
+        j_lat = 0.0
+        if self._lat:
+            eps = self._eps
+            inv = 1.0 / np.maximum(v, self._floor)
+            for scp, tcp_q, open_q in self._lat:
+                d = scp - s
+                tcp = time_to_conflict_point(d, v, self._floor)
+                active = (s <= scp + self._clr) & open_q
+                j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, eps, active)
+                if active.any():
+                    g = tcp - tcp_q
+                    den = g * g + eps
+                    w1 = (self.w_lat * active) * (-2.0 * g) / (den * den)
+                    c = (d * inv * inv) * (v > self._floor) * dt
+                    alpha = inv * hm.k_half + c
+                    grad += hm.m_dt2 * _rcumsum(inv * w1) - _rcumsum(alpha * w1)
+        for s_lead, v_lead in self._log:
+            gap = np.maximum(s_lead - s, self.gs.gap_floor)
+            dv = v - v_lead
+            r = dv / gap
+            closing = r > 0
+            if closing.any():
+                den = 1.0 + self._eps * r * r
+                w1 = (self.w_log * closing) * 2.0 * r / (den * den)
+                x = dv / (gap * gap) * w1
+                grad += dt * _rcumsum(w1 / gap) + _rcumsum(hm.k_half * x) - hm.m_dt2 * _rcumsum(x)
+        return self._finish(a, v, s, j_lat), grad
+
+    def gradient(self, a: np.ndarray) -> np.ndarray:
+        """Gradient of the true cost where it is smooth (N,)."""
+        return self.cost_and_gradient(a)[1]
+
+    def _lateral_jacobian(self, d, v, inv):
+        """dTCP/da (N, N) for TCP = d / max(v, floor): row k = -(Ls[k] + d_k / v_k dtLv[k]) / v_k."""
+        hm = self.hm
+        c = (d * inv * inv) * (v > self._floor) * self.dt
+        # Ls[k, m] = k_half[k] - m_dt2[m] and Lv[k, m] = 1 for m <= k
+        alpha = inv * hm.k_half + c
+        return (np.multiply.outer(inv, hm.m_dt2) - alpha[:, None]) * hm.Lv
+
+    def _lateral_model(self, g, d, v, inv, active, grad, H) -> None:
+        """Add the Gauss-Newton model of sum_k w_lat f(g_k) (Eq. 19), g = TTC_lat, to grad, H."""
+        if not active.any():
+            return
+        eps = self._eps
+        gg = g * g
+        den = gg + eps
+        den2 = den * den
+        w = self.w_lat * active
+        G = self._lateral_jacobian(d, v, inv)
+        grad += G.T @ (w * (-2.0 * g) / den2)
+        w2 = w * np.maximum((6.0 * gg - 2.0 * eps) / (den2 * den), 0.0)
+        H += (G.T * w2) @ G
+
+    def _following_jacobian(self, gap, dv):
+        """d(1 / TTC_log)/da (N, N) for r = dv / gap."""
+        hm = self.hm
+        return (self.dt / gap)[:, None] * hm.Lv + (dv / (gap * gap))[:, None] * hm.Ls
+
+    def _following_model(self, s_lead, v_lead, v, s, grad, H) -> None:
+        """Add the Gauss-Newton model of sum_k w_log h(r_k) (Eq. 15), r = 1 / TTC_log."""
+        gap = np.maximum(s_lead - s, self.gs.gap_floor)
+        dv = v - v_lead
+        r = dv / gap
+        closing = r > 0
+        if not closing.any():
+            return
+        eps = self._eps
+        den = 1.0 + eps * r * r
+        den2 = den * den
+        w = self.w_log * closing
+        R = self._following_jacobian(gap, dv)
+        grad += R.T @ (w * 2.0 * r / den2)
+        w2 = w * np.maximum((2.0 - 6.0 * eps * r * r) / (den2 * den), 0.0)
+        H += (R.T * w2) @ R
+
+    # ------------------------------------------------------------------ pair model (Stackelberg)
+    def pair_model(self, a: np.ndarray, q: int, plan_q) -> tuple[np.ndarray, ...]:
+        """Convex model of C_p in (a_p, a_q) jointly.
+
+        Returns grad_p (N,), grad_q (N,), H_pp, H_pq, H_qq (N, N): the Gauss-Newton model
+        J^T diag(max(f'', 0)) J with J = [dg/da_p, dg/da_q] for each term coupling p with q, plus
+        p's exact quadratic terms and its terms with other players in H_pp. ``plan_q`` must be
+        the plan of q installed by :meth:`set_others`.
+        """
+        n, hm, eps = self.n, self.hm, self._eps
+        grad_p = self.Q @ a + self.b0
+        H_pp = self.Q.copy()
+        grad_q = np.zeros(n)
+        H_pq = np.zeros((n, n))
+        H_qq = np.zeros((n, n))
+        v, s = self.v0 + hm.dtLv @ a, self.s_free + hm.Ls @ a
+        v_q, s_q = plan_q.speeds[1:], plan_q.positions[1:]
+        terms = []
+        if self._lat:
+            inv = 1.0 / np.maximum(v, self._floor)
+            inv_q = 1.0 / np.maximum(v_q, self._floor)
+            for (other, _scp, scp_q), (scp, tcp_q, open_q) in zip(self.lat_terms, self._lat):
+                d = scp - s
+                active = (s <= scp + self._clr) & open_q
+                if not active.any():
+                    continue
+                g = d * inv - tcp_q
+                gg = g * g
+                den = gg + eps
+                den2 = den * den
+                w = self.w_lat * active
+                G = self._lateral_jacobian(d, v, inv)
+                # g = TCP_p - TCP_q, so dg/da_q = -dTCP_q/da_q
+                Gq = -self._lateral_jacobian(scp_q - s_q, v_q, inv_q) if other == q else None
+                terms.append((G, Gq, w * (-2.0 * g) / den2,
+                              w * np.maximum((6.0 * gg - 2.0 * eps) / (den2 * den), 0.0)))
+        for (other, _off), (s_lead, v_lead) in zip(self.log_terms, self._log):
+            gap = np.maximum(s_lead - s, self.gs.gap_floor)
+            dv = v - v_lead
+            r = dv / gap
+            closing = r > 0
+            if not closing.any():
+                continue
+            den = 1.0 + eps * r * r
+            den2 = den * den
+            w = self.w_log * closing
+            R = self._following_jacobian(gap, dv)
+            # r depends on the leader through -dv and +gap: dr/da_leader = -R (same time grid)
+            terms.append((R, -R if other == q else None, w * 2.0 * r / den2,
+                          w * np.maximum((2.0 - 6.0 * eps * r * r) / (den2 * den), 0.0)))
+        for G, Gq, w1, w2 in terms:
+            grad_p += G.T @ w1
+            GW = G.T * w2
+            H_pp += GW @ G
+            if Gq is not None:
+                grad_q += Gq.T @ w1
+                H_pq += GW @ Gq
+                H_qq += (Gq.T * w2) @ Gq
+        return grad_p, grad_q, H_pp, H_pq, H_qq

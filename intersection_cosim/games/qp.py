@@ -1,0 +1,163 @@
+"""The QP of one SQP step, solved with OSQP; one workspace per problem shape, reused.
+
+Every QP of the game layer has the same shape: N variables (a player's accelerations) and 2N rows
+
+    max(a_min, a0 - Delta) <= x_k <= min(a_max, a0 + Delta)          (input box and trust region)
+    -v0 / dt <= sum_{m <= k} x_m <= (v_cap - v0) / dt                 (0 <= v_{k+1} <= v_cap)
+
+with a dense convex P (the Gauss-Newton Hessian). The constraint matrix is constant, so one OSQP
+object per (N, slot) is set up once and afterwards only updated (P values, q, l, u) and
+warm-started (x given, y kept from the slot's previous solve); it is never rebuilt. ``slot``
+separates workspaces whose warm starts should not mix (one per player of a game, one for the
+Stackelberg leader). Workspaces live per thread.
+
+Conditioning, chosen on QPs recorded from the solvers (median 15-25 ADMM iterations instead of
+55): the row k of the speed constraints is divided by sqrt(k + 1) so all rows have unit norm, the
+objective is divided by the mean diagonal of P, and OSQP's own Ruiz scaling is off (it would be
+recomputed on every P update). If the new P differs from the slot's current one by less than
+``hessian_reuse_tol`` (relative, max norm), the current P is kept: no refactorisation, and the QP
+uses that (still convex) model curvature with the exact gradient.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+import osqp
+import scipy.sparse as sp
+
+from intersection_cosim.games.settings import GameSettings
+
+_SOLVED = int(osqp.SolverStatus.OSQP_SOLVED)
+_local = threading.local()
+
+
+@dataclass
+class QPSolution:
+    x: np.ndarray | None  # [m/s^2] primal solution, None when OSQP did not solve the QP
+    y_osqp: np.ndarray | None  # OSQP's duals of the scaled problem
+    H: np.ndarray | None  # the Hessian the QP actually used (see hessian reuse)
+    status: str  # OSQP status text
+    iterations: int  # ADMM iterations
+    y_scale: np.ndarray | None = None  # y = y_scale * y_osqp
+
+    @property
+    def ok(self) -> bool:
+        return self.x is not None
+
+    @property
+    def y(self) -> np.ndarray | None:
+        """[-] multipliers of the 2N unscaled rows (> 0: upper bound active)."""
+        return None if self.y_osqp is None else self.y_scale * self.y_osqp
+
+
+class QPWorkspace:
+    """One OSQP problem of N variables and rows [I; Lv] (module docstring)."""
+
+    def __init__(self, n: int, gs: GameSettings):
+        self.n = n
+        self.gs = gs
+        Lv = np.tril(np.ones((n, n)))
+        self.row_scale = np.concatenate((np.ones(n), 1.0 / np.sqrt(np.arange(1, n + 1))))
+        self.A_rows = np.vstack([np.eye(n), Lv])  # unscaled rows, for activity tests
+        A = sp.csc_matrix(self.A_rows * self.row_scale[:, None])
+        pattern = sp.triu(sp.csc_matrix(np.ones((n, n)))).tocsc()
+        self._rows = pattern.indices.copy()
+        self._cols = np.repeat(np.arange(n), np.diff(pattern.indptr))
+        self._flat = self._rows * n + self._cols  # CSC order of the upper triangle in H.ravel()
+        H0 = np.eye(n)
+        P0 = sp.csc_matrix((H0[self._rows, self._cols], self._rows, pattern.indptr), shape=(n, n))
+        self.solver = osqp.OSQP()
+        self.solver.setup(P0, np.zeros(n), A, -np.ones(2 * n), np.ones(2 * n), verbose=False,
+                          eps_abs=gs.osqp_eps_abs, eps_rel=gs.osqp_eps_rel,
+                          max_iter=gs.osqp_max_iter, check_termination=gs.osqp_check_termination,
+                          polishing=False, warm_starting=True, scaling=0)
+        # the extension object; the public wrapper adds ~50 us of Python per call (constants
+        # looked up by import, an info dict rebuilt), too much for a 1 ms budget
+        raw = getattr(self.solver, "_solver", None)
+        needed = ("update_data_vec", "update_data_mat", "warm_start", "solve", "info", "solution")
+        self._raw = raw if all(hasattr(raw, m) for m in needed) else None
+        self.H: np.ndarray | None = None  # P currently installed (unnormalised)
+        self._reuse_bound = 0.0
+        self._scale = 1.0
+        self.solves = 0
+
+    def speed_rows(self, v0: float, v_cap: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Scaled bounds of the N speed rows for 0 <= v_{k+1} <= v_cap, from v0 [m/s]."""
+        rs = self.row_scale[self.n:]
+        return (-v0 / dt) * rs, ((v_cap - v0) / dt) * rs
+
+    def solve(self, H: np.ndarray, g: np.ndarray, a: np.ndarray, l: np.ndarray, u: np.ndarray,
+              y0: np.ndarray | None = None, reuse: bool = True) -> QPSolution:
+        """min 1/2 x^T H x + (g - H a)^T x  s.t.  l <= R [I; Lv] x <= u, warm-started at x = a.
+
+        This is the model g^T (x - a) + 1/2 (x - a)^T H (x - a) of an SQP step. ``l``, ``u`` are
+        the bounds of the *scaled* rows (R = diag(row_scale)): the input-box rows are unscaled,
+        the speed rows come from :meth:`speed_rows`. ``y0``: multipliers of the unscaled rows to
+        warm-start with (e.g. carried by the previous control step's plan); without it OSQP keeps
+        the duals of the slot's previous solve. With ``reuse`` the installed P may stand in for H
+        (module docstring); the solution reports the H used.
+        """
+        Hc = self.H
+        if reuse and Hc is not None and (H is Hc or abs(H - Hc).max() <= self._reuse_bound):
+            H = Hc
+        else:
+            Hc = None
+            d = float(H.trace()) / self.n
+            if not (d > 0.0 and math.isfinite(d)):
+                return QPSolution(None, None, None, "invalid Hessian", 0)
+            self._scale = 1.0 / d
+        scale, rs = self._scale, self.row_scale
+        q = scale * (g - H @ a)
+        if self._raw is not None:
+            raw = self._raw
+            err = raw.update_data_vec(q=q, l=l, u=u)
+            if not err and Hc is None:
+                err = raw.update_data_mat(P_x=scale * H.ravel()[self._flat], P_i=None, A_x=None, A_i=None)
+            if err:  # OSQP rejected the data (l > u, non-finite, not quasi-definite)
+                self.H = None
+                return QPSolution(None, None, None, f"data rejected (OSQP error {err})", 0)
+            raw.warm_start(a, None if y0 is None else (scale / rs) * y0)
+            raw.solve()
+            info = raw.info
+            status_val, iters = int(info.status_val), int(info.iter)
+            x, y = np.array(raw.solution.x), np.array(raw.solution.y)
+        else:  # public interface
+            if Hc is None:
+                self.solver.update(q=q, l=l, u=u, Px=scale * H.ravel()[self._flat])
+            else:
+                self.solver.update(q=q, l=l, u=u)
+            if y0 is None:
+                self.solver.warm_start(x=a)
+            else:
+                self.solver.warm_start(x=a, y=(scale / rs) * y0)
+            res = self.solver.solve(raise_error=False)
+            info = res.info
+            status_val, iters = int(info.status_val), int(info.iter)
+            x, y = np.array(res.x), np.array(res.y)
+        self.solves += 1
+        if Hc is None:
+            self.H = H
+            # H is positive semidefinite: its largest entry in magnitude is on the diagonal
+            self._reuse_bound = self.gs.hessian_reuse_tol * float(H.diagonal().max())
+        if status_val != _SOLVED or not math.isfinite(float(x.sum())):
+            self.H = None  # do not reuse data of a failed solve
+            status = "non-finite solution" if status_val == _SOLVED else str(info.status)
+            return QPSolution(None, None, None, status, iters)
+        return QPSolution(x, y, H, "solved", iters, rs / scale)
+
+
+def workspace(n: int, gs: GameSettings, slot: object = 0) -> QPWorkspace:
+    """The thread's workspace for N = ``n`` and ``slot``, created on first use."""
+    pool = getattr(_local, "pool", None)
+    if pool is None:
+        pool = _local.pool = {}
+    key = (n, slot, gs.osqp_eps_abs, gs.osqp_eps_rel, gs.osqp_max_iter, gs.osqp_check_termination,
+           gs.hessian_reuse_tol)
+    ws = pool.get(key)
+    if ws is None:
+        ws = pool[key] = QPWorkspace(n, gs)
+    return ws

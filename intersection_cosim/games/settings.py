@@ -1,0 +1,104 @@
+"""Solver parameters of the game layer (paper Section IV), one typed object with documented defaults.
+
+Like :class:`~intersection_cosim.models.settings.ModelSettings`, every field can be set from a
+scenario-file table (``[games]``) through :func:`intersection_cosim.settings.from_table`, which calls
+:meth:`GameSettings.check`. The cost weights of the paper (Eqs. 13-24) stay in ModelSettings; this
+object only holds what the paper does not specify: the horizon, the input limits, the comfort
+regulariser, the fallback and the numerical knobs of the SQP / OSQP solvers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from intersection_cosim.settings import non_negative, positive
+
+SCHEMES = ("gauss-seidel", "jacobi")
+
+
+@dataclass(frozen=True)
+class GameSettings:
+    # --- horizon and input limits ---
+    horizon: float = 3.0  # [s] planning horizon T of the open-loop game (Eq. 10: t in [0, T])
+    dt: float = 0.1  # [s] step of the acceleration sequence; N = horizon / dt decisions per player
+    a_min: float = -4.0  # [m/s^2] hardest braking a player may plan (U^i of Eq. 11)
+    a_max: float = 2.5  # [m/s^2] strongest acceleration a player may plan (U^i of Eq. 11)
+    comfort_brake: float = 2.0  # [m/s^2] deceleration of the safe fallback plan (brake to a stop)
+
+    # --- comfort regulariser, added to every player's cost (not in the paper) ---
+    # Makes each best response strictly convex in the accelerations even when kappa = 0 and no
+    # interaction is active (then the paper's running cost is constant and every plan is optimal).
+    # Cost per step dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), same units as J_e.
+    w_accel: float = 0.01  # [s^4/m^2] weight of the squared acceleration
+    w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
+
+    # --- equilibrium iteration (Section IV-C, IV-D) ---
+    scheme: str = "gauss-seidel"  # "gauss-seidel" or "jacobi" best-response iteration
+    nash_max_iter: int = 30  # [-] iteration cap of the Nash best-response iteration
+    sqp_steps_per_iteration: int = 1  # [-] SQP steps of each best response inside one iteration
+    # converged when no plan moved more than nash_tol in one iteration, or when no best response
+    # lowered its player's true cost by more than nash_cost_rtol (relative) and no plan moved
+    # more than nash_cost_guard: every player is then within a second-order small gain of its
+    # best response (a flat optimum may still shift a plan a little)
+    nash_tol: float = 1e-2  # [m/s^2]
+    nash_cost_rtol: float = 1e-3  # [-]
+    nash_cost_guard: float = 0.3  # [m/s^2]
+    cold_start_orders: bool = False  # cold Nash: also start from each passing order (3x the work)
+    stackelberg_max_iter: int = 20  # [-] cap on leader iterations
+    stackelberg_tol: float = 1e-2  # [m/s^2] converged when the leader's step is smaller than this
+    stackelberg_gain_rtol: float = 1e-4  # [-] ... or its model gain is below this fraction
+    stackelberg_attempts: int = 1  # [-] leader QPs per iteration: after a rejected step (all its
+    #                                halves tried) the trust region shrinks and the QP is re-solved
+    active_set_max_updates: int = 4  # [-] follower active-set updates per leader step
+    active_tol: float = 1e-3  # [m/s^2] a row within this of its bound starts in the active set
+    #                           (OSQP at eps 1e-4 is accurate to ~1e-3; the KKT refinement fixes it)
+
+    # --- best response: sequential QP with trust region and line search ---
+    br_max_sqp: int = 20  # [-] SQP iterations of a stand-alone best response
+    br_step_tol: float = 1e-3  # [m/s^2] stop when the accepted step is smaller than this
+    br_rel_decrease_tol: float = 1e-7  # [-] stop when the model decrease < this * |cost|
+    trust_region: float = 1.5  # [m/s^2] initial trust-region radius on |a - a_iterate|
+    trust_region_min: float = 1e-3  # [m/s^2] give up improving below this radius
+    trust_region_max: float = 6.5  # [m/s^2] largest radius (a_max - a_min covers the whole box)
+    line_search_steps: int = 2  # [-] step halvings tried before the trust region shrinks
+    armijo: float = 1e-4  # [-] sufficient-decrease fraction of the model decrease
+    gap_floor: float = 0.1  # [m] gap floor in the derivative of J_log (Eq. 16) near contact
+    hessian_refresh: float = 0.2  # [m/s^2] within one solve, reuse a player's model Hessian until
+    #                               its plan or a partner's moved more than this
+
+    # --- OSQP (one workspace per problem shape, updated and warm-started) ---
+    osqp_eps_abs: float = 1e-4  # [-] absolute tolerance on the normalised QP
+    osqp_eps_rel: float = 1e-4  # [-] relative tolerance
+    osqp_max_iter: int = 4000  # [-] ADMM iteration cap; hitting it is a solver failure
+    osqp_check_termination: int = 5  # [-] ADMM iterations between termination checks
+    hessian_reuse_tol: float = 0.05  # [-] keep OSQP's installed P (no refactorisation) if the new
+    #                                  Hessian differs from it by less than this (relative)
+
+    @property
+    def steps(self) -> int:
+        """[-] N = horizon / dt, decisions per player."""
+        return int(round(self.horizon / self.dt))
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = positive(self, "horizon", "dt", "a_max", "comfort_brake", "nash_tol",
+                            "nash_max_iter", "sqp_steps_per_iteration", "stackelberg_tol",
+                            "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
+                            "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",
+                            "gap_floor", "osqp_eps_abs", "osqp_max_iter",
+                            "osqp_check_termination")
+        problems += non_negative(self, "w_accel", "w_jerk", "active_set_max_updates",
+                                 "active_tol", "line_search_steps", "armijo",
+                                 "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol",
+                                 "hessian_refresh", "nash_cost_rtol", "nash_cost_guard",
+                                 "stackelberg_gain_rtol")
+        if not self.a_min < 0:
+            problems.append(("a_min", "must be < 0"))
+        if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:
+            problems.append(("horizon", "must be a whole number of steps dt"))
+        if self.scheme not in SCHEMES:
+            problems.append(("scheme", f"must be one of {', '.join(SCHEMES)}"))
+        if not self.trust_region_min <= self.trust_region <= self.trust_region_max:
+            problems.append(("trust_region", "must lie in [trust_region_min, trust_region_max]"))
+        if not self.comfort_brake <= -self.a_min:
+            problems.append(("comfort_brake", "must be <= -a_min"))
+        return problems

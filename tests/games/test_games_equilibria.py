@@ -1,0 +1,131 @@
+"""Equilibrium quality on a seeded battery, decoupled games, aggressiveness, warm starts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from intersection_cosim.games import (GameSettings, Interaction, Player, Problem, best_response,
+                                      check_nash, check_stackelberg, nash_equilibrium,
+                                      shift_plans, stackelberg_equilibrium, stackelberg_leader)
+from intersection_cosim.games.battery import advance
+from intersection_cosim.models.cost import time_to_conflict_point
+
+
+def test_nash_gap_on_battery(pair_battery, nash_battery, gs, ms):
+    """Item 5 check on >= 50 random crossing / merging pairs: median gap < 1 %, >= 95 % under 5 %."""
+    assert len(pair_battery) >= 50
+    assert all(r.status == "converged" for r in nash_battery)
+    gaps = []
+    for problem, result in zip(pair_battery, nash_battery):
+        check = check_nash(problem, result, gs, ms, starts=3)
+        gaps.extend(d.relative_gain for d in check.deviations)
+    gaps = np.array(gaps)
+    assert np.median(gaps) < 0.01
+    assert np.mean(gaps < 0.05) >= 0.95
+
+
+def test_stackelberg_passes_checks_on_battery(pair_battery, nash_battery, gs, ms):
+    """Every Stackelberg solution: follower at its best response, leader no worse than at Nash."""
+    gains = []
+    for problem, nash in zip(pair_battery, nash_battery):
+        se = stackelberg_equilibrium(problem, gs, ms, nash=nash)
+        assert se.status == "converged"
+        assert se.leader == stackelberg_leader(problem, ms)
+        check = check_stackelberg(problem, se, nash, gs, ms, starts=2)
+        assert check.follower_at_best_response, (check.follower_deviation.relative_gain, problem)
+        assert check.leader_not_worse, (check.leader_cost, check.leader_cost_nash)
+        gains.append(check.leader_cost_nash - check.leader_cost)
+    assert min(gains) >= 0.0  # the leader never loses against its Nash payoff
+
+
+def test_decoupled_game_gives_own_optimum_in_one_iteration(gs, ms):
+    players = (Player(0.0, 4.0, 0.3), Player(5.0, 7.0, 0.8), Player(0.0, 6.0, 0.5))
+    result = nash_equilibrium(Problem(players), gs, ms)
+    assert result.status == "converged"
+    assert result.iterations == 1
+    assert result.residuals[0] < gs.nash_tol
+    for p in range(3):
+        alone = best_response(Problem(players), p, None, gs, ms)
+        assert alone.status == "converged"
+        assert result.plans[p].accelerations == pytest.approx(alone.plan.accelerations, abs=2e-3)
+        assert result.costs[p] == pytest.approx(alone.cost, rel=1e-4)
+    # the own optimum of a kappa > 0 player accelerates towards v_max
+    assert result.plans[1].speeds[-1] > players[1].v0
+
+
+def _min_lateral_ttc(problem, result, ms):
+    it = problem.interactions[0]
+    p0, p1 = result.plans
+    tcp0 = time_to_conflict_point(it.s_cp_i - p0.positions, p0.speeds, ms.tcp_speed_floor)
+    tcp1 = time_to_conflict_point(it.s_cp_j - p1.positions, p1.speeds, ms.tcp_speed_floor)
+    active = ((p0.positions - it.s_cp_i) <= ms.conflict_clearance) & \
+        ((p1.positions - it.s_cp_j) <= ms.conflict_clearance)
+    return float(np.abs(tcp0 - tcp1)[1:][active[1:]].min())  # states x_1..x_N
+
+
+def test_higher_kappa_faster_and_closer(gs, ms):
+    """Raising kappa of player 0 (all else equal): its mean speed rises, the min TTC_lat falls."""
+    speeds, ttcs = [], []
+    for kappa in (0.3, 0.5, 0.7, 0.9):
+        problem = Problem((Player(0.0, 5.5, kappa), Player(0.0, 5.0, 0.5)),
+                          (Interaction.cross(0, 1, 20.0, 17.0),))
+        result = nash_equilibrium(problem, gs, ms)
+        assert result.status == "converged"
+        speeds.append(result.plans[0].mean_speed)
+        ttcs.append(_min_lateral_ttc(problem, result, ms))
+    assert np.all(np.diff(speeds) > 0.1), speeds
+    assert np.all(np.diff(ttcs) < 0.0), ttcs
+
+
+def test_warm_start_median_iterations(pair_battery, nash_battery, gs, ms):
+    """Receding horizon over 3 s (30 shifted problems per pair): median iterations <= 2."""
+    iterations = []
+    for problem, result in list(zip(pair_battery, nash_battery))[:8]:
+        for _ in range(int(round(3.0 / gs.dt))):
+            problem = advance(problem, result.plans)
+            result = nash_equilibrium(problem, gs, ms, warm_start=shift_plans(result))
+            assert result.status == "converged"
+            iterations.append(result.iterations)
+    assert np.median(iterations) <= 2
+
+
+def test_warm_start_reproduces_converged_plans(pair_battery, nash_battery, gs, ms):
+    """Warm-starting the same problem from its own equilibrium converges in one iteration."""
+    for problem, result in list(zip(pair_battery, nash_battery))[:10]:
+        again = nash_equilibrium(problem, gs, ms, warm_start=result)
+        assert again.iterations <= 2
+        assert again.accelerations == pytest.approx(result.accelerations, abs=gs.nash_cost_guard)
+
+
+def test_jacobi_converges_to_same_equilibrium(pair_battery, nash_battery, ms):
+    jacobi = GameSettings(scheme="jacobi", nash_max_iter=60)
+    for problem, result in list(zip(pair_battery, nash_battery))[:10]:
+        other = nash_equilibrium(problem, jacobi, ms)
+        assert other.status == "converged"
+        assert other.costs == pytest.approx(result.costs, rel=0.02, abs=1e-3)
+
+
+def test_stackelberg_warm_sequence(pair_battery, gs, ms):
+    problem = pair_battery[0]
+    result = stackelberg_equilibrium(problem, gs, ms)
+    for _ in range(10):
+        problem = advance(problem, result.plans)
+        result = stackelberg_equilibrium(problem, gs, ms, warm_start=shift_plans(result))
+        assert result.status == "converged"
+        assert result.iterations <= 3
+
+
+def test_leader_is_smaller_tcp(ms):
+    # player 0: 30 m at 5 m/s (6 s); player 1: 20 m at 5 m/s (4 s) -> player 1 leads
+    problem = Problem((Player(0.0, 5.0, 0.5), Player(0.0, 5.0, 0.5)), (Interaction.cross(0, 1, 30.0, 20.0),))
+    assert stackelberg_leader(problem, ms) == 1
+    following = Problem((Player(0.0, 5.0, 0.5), Player(20.0, 5.0, 0.5)), (Interaction.following(0, 1),))
+    assert stackelberg_leader(following, ms) == 1
+    result = stackelberg_equilibrium(problem, leader=0)
+    assert result.leader == 0
+
+
+def test_stackelberg_needs_two_players():
+    with pytest.raises(ValueError):
+        stackelberg_equilibrium(Problem((Player(0.0, 5.0, 0.5),)))
