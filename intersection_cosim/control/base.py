@@ -32,7 +32,7 @@ class World:
     kappa: np.ndarray  # [-] aggressiveness
     role: list[str]  # ready / passing / outside (the conflict zone)
     lanes: list[str] = field(default_factory=list)  # SUMO lane id of each vehicle
-    exit_choices: dict[str, tuple[str, ...]] = field(default_factory=dict)  # vehicle -> exit lanes still open
+    exit_choices: dict[str, tuple[str, ...]] = field(default_factory=dict)  # vehicle -> exit lanes it may still take
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -44,6 +44,7 @@ class Decisions:
 
     accel: dict[str, float] = field(default_factory=dict)  # [m/s^2] per controlled vehicle
     exit_lane: dict[str, str] = field(default_factory=dict)  # chosen exit lane per vehicle
+    release: list[str] = field(default_factory=list)  # vehicles handed back to SUMO's driver model
     games: int = 0  # games played this step
     iterations: int = 0  # equilibrium iterations (summed over games)
     pairs: list[tuple[str, str]] = field(default_factory=list)  # pairs that played a game
@@ -56,6 +57,7 @@ class ControlContext:
     """What a controller gets once, before the first step."""
 
     paths: dict[str, MovementPath]
+    net_file: str  # the SUMO net the run uses (for the precomputed conflict table)
     model: ModelSettings
     control_period: float  # [s]
     solver: object  # the controller's validated [controller.solver] settings (or None)

@@ -63,3 +63,10 @@ def _load_builtin() -> None:
 
     register("sumo", Entry(lambda scn: SumoController(junction_type=scn.scenario.junction_type),
                            None, "SUMO's own driver model and right of way"))
+
+    from intersection_cosim.control.game import GameController
+    from intersection_cosim.games.settings import GameSettings
+
+    for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
+        register(name, Entry(lambda scn, name=name: GameController(name, scn.solver),
+                             GameSettings, f"the paper's differential game, {what} equilibrium"))

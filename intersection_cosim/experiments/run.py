@@ -35,7 +35,9 @@ from intersection_cosim.settings import to_dict
 
 log = logging.getLogger(__name__)
 
-TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s"]
+TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
+                      "accel_cmd"]
+CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
 STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback"]
 RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
 
@@ -117,7 +119,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     for v in scn.vehicles:
         infos[v.id] = VehicleInfo(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
                                   intended_path=v.path_id, controlled=controller.controls_vehicles,
-                                  exit_lane=v.exit_lane, start_s=v.s0 if v.in_junction else None)
+                                  exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
+                                  start_s=v.s0 if v.in_junction else None)
     for fv in flow_vehicles:
         pid = f"{fv['approach']}_{fv['lane']}_{fv['movement']}_{default_exit_lane(fv['lane'], fv['movement'])}"
         infos[fv["id"]] = VehicleInfo(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
@@ -128,10 +131,10 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     if abs(period_steps * s.step_length - scn.controller.period) > 1e-9:
         raise InputError(scn.source, "controller.period", scn.controller.period,
                          f"must be a multiple of scenario.step_length ({s.step_length:g} s)")
-    controller.setup(ControlContext(paths=paths, model=scn.model, control_period=scn.controller.period,
+    controller.setup(ControlContext(paths=paths, net_file=str(net), model=scn.model, control_period=scn.controller.period,
                                     solver=scn.solver, etm=scn.controller.etm))
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
-    sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length)
+    sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length, exit_distance=s.exit_distance)
 
     traj_rows: list[tuple] = []
     step_rows: list[tuple] = []
@@ -144,12 +147,12 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
             if k % period_steps == 0:
                 world = sim.world()  # read
+                decisions, record = scheduler.step(world)  # decide
+                sim.command(decisions)
                 for i, vid in enumerate(world.ids):
                     traj_rows.append((world.time, vid, world.x[i], world.y[i], world.v[i], world.a[i],
                                       world.heading[i], world.lanes[i], world.role[i],
-                                      world.path_ids[i], world.s[i]))
-                decisions, record = scheduler.step(world)  # decide
-                sim.command(decisions)
+                                      world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
                 step_rows.append(dataclasses.astuple(record))
                 for a, b in decisions.pairs:
                     key = (a, b) if a < b else (b, a)
@@ -173,6 +176,12 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                        ssm, game_steps)
 
     traj.to_csv(folder / "trajectories.csv", index=False, float_format="%.4f")
+    records = getattr(controller, "convergence", None)
+    if records is not None:
+        rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
+                for r in records for m, res in enumerate(r.residuals)]
+        pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / "convergence.csv", index=False,
+                                                               float_format="%.6g")
     steps.to_csv(folder / "steps.csv", index=False, float_format="%.4f")
     vehicles.to_csv(folder / "vehicles.csv", index=False, float_format="%.4f")
     pairs.to_csv(folder / "pairs.csv", index=False, float_format="%.4f")

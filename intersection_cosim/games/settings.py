@@ -29,7 +29,9 @@ class GameSettings:
     # Makes each best response strictly convex in the accelerations even when kappa = 0 and no
     # interaction is active (then the paper's running cost is constant and every plan is optimal).
     # Cost per step dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), same units as J_e.
-    w_accel: float = 0.01  # [s^4/m^2] weight of the squared acceleration
+    w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration (calibrated in the closed
+    #                       loop: at 0.01 every vehicle reaches v_max within 2 s whatever its kappa,
+    #                       so kappa had no effect on travel time)
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
 
     # --- equilibrium iteration (Section IV-C, IV-D) ---
@@ -74,6 +76,11 @@ class GameSettings:
     hessian_reuse_tol: float = 0.05  # [-] keep OSQP's installed P (no refactorisation) if the new
     #                                  Hessian differs from it by less than this (relative)
 
+    # --- safety filter of the closed-loop controller (not in the paper; control/safety.py) ---
+    safety_filter: bool = True  # [-] check every applied acceleration against collision
+    safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
+    safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
+
     @property
     def steps(self) -> int:
         """[-] N = horizon / dt, decisions per player."""
@@ -86,6 +93,7 @@ class GameSettings:
                             "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",
                             "gap_floor", "osqp_eps_abs", "osqp_max_iter",
                             "osqp_check_termination")
+        problems += non_negative(self, "safety_time_gap", "safety_margin")
         problems += non_negative(self, "w_accel", "w_jerk", "active_set_max_updates",
                                  "active_tol", "line_search_steps", "armijo",
                                  "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol",

@@ -39,11 +39,21 @@ def vehicle_table(infos: dict, tripinfo: pd.DataFrame, exit_lanes: dict[str, str
     return pd.DataFrame(rows, columns=VEHICLE_COLUMNS)
 
 
-def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSettings) -> float:
-    """[s] minimum TTC of one conflicting pair over the time both are in the network.
+def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSettings,
+                 zone_a: tuple[float, float] | None = None, zone_b: tuple[float, float] | None = None) -> float:
+    """[s] minimum TTC of one conflicting pair.
 
     ``a`` and ``b`` are the two vehicles' trajectory rows (time, s, speed) on common times, with
-    ``conflict`` oriented so that ``s_a`` belongs to ``a``.
+    ``conflict`` oriented so that ``s_a`` belongs to ``a``. ``zone_a`` / ``zone_b`` are the arc
+    lengths [m] where each path is inside the conflict zone (stop line, junction exit).
+
+    Following pairs: the minimum of TTC_log over the time both are on the shared stretch.
+    Cross and confluence pairs: the minimum of TTC_lat = |TCP_a - TCP_b| over the *risk window*,
+    the steps in which at least one of the two is inside the conflict zone and neither has passed
+    the point. Before that window TTC_lat is a prediction from speeds that are still free to
+    change (at the paper's start points it is below 0.5 s in every scenario, whatever the
+    controller later does); inside it, the first vehicle is committed and the second's margin is
+    what the decision produced.
     """
     sa, sb = a["s"].to_numpy(), b["s"].to_numpy()
     va, vb = a["speed"].to_numpy(), b["speed"].to_numpy()
@@ -57,6 +67,9 @@ def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSetting
         ttc = np.asarray(longitudinal_ttc(gap, v_follow, v_lead), float)[on_shared]
     else:
         before = (sa < conflict.s_a) & (sb < conflict.s_b)
+        if zone_a is not None and zone_b is not None:
+            inside = ((sa >= zone_a[0]) & (sa <= zone_a[1])) | ((sb >= zone_b[0]) & (sb <= zone_b[1]))
+            before &= inside
         tcp_a = time_to_conflict_point(conflict.s_a - sa, va, model.tcp_speed_floor)
         tcp_b = time_to_conflict_point(conflict.s_b - sb, vb, model.tcp_speed_floor)
         ttc = np.abs(np.asarray(lateral_ttc(tcp_a, tcp_b), float))[before]
@@ -90,6 +103,13 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
                 if len(enc):
                     ttc_ssm, pet_ssm = enc["min_ttc"].min(), enc["pet"].min()
             rows.append({"vehicle_a": va, "vehicle_b": vb, "conflict": conflict.kind,
-                         "min_ttc": pair_min_ttc(conflict, a, b, model), "min_ttc_ssm": ttc_ssm,
+                         "min_ttc": pair_min_ttc(conflict, a, b, model, _zone(paths, final_paths.get(va)),
+                                                 _zone(paths, final_paths.get(vb))),
+                         "min_ttc_ssm": ttc_ssm,
                          "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0))})
     return pd.DataFrame(rows, columns=PAIR_COLUMNS)
+
+
+def _zone(paths: dict[str, MovementPath], pid: str | None) -> tuple[float, float] | None:
+    """[m] arc lengths of a path's stretch inside the conflict zone (stop line to junction exit)."""
+    return None if pid is None or pid not in paths else (paths[pid].s_stop, paths[pid].s_exit)

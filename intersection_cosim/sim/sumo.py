@@ -18,13 +18,14 @@ import numpy as np
 
 from intersection_cosim.control.base import Decisions, World
 from intersection_cosim.network.paths import MovementPath
-from intersection_cosim.network.spec import LANE_NAME
+from intersection_cosim.network.spec import LANE_NAME, LANE_USE
 
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
          libsumo.VAR_LANE_ID, libsumo.VAR_LANEPOSITION)
 
 SPEED_MODE_CONTROLLED = 0  # every SUMO check off: no safe speed, no right of way, no accel limits
 LANE_CHANGE_MODE_CONTROLLED = 0  # SUMO makes no lane change of its own
+SPEED_MODE_SUMO = 31  # SUMO's default: every safety check on (for vehicles released from control)
 
 
 def sumo_version() -> str:
@@ -42,6 +43,7 @@ class VehicleInfo:
     intended_path: str  # path id used until the vehicle is in the junction
     controlled: bool
     exit_lane: str | None = None  # exit lane to enforce at the junction entry (None: SUMO's)
+    exit_fixed: bool = False  # the scenario fixes the exit lane: the controller may not choose
     start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
 
 
@@ -52,6 +54,7 @@ class SumoSimulation:
     paths: dict[str, MovementPath]
     vehicles: dict[str, VehicleInfo]
     step_length: float  # [s]
+    exit_distance: float = 50.0  # [m] past the junction where vehicles arrive (the routes' arrivalPos)
     time: float = 0.0  # [s]
     states: dict[str, dict] = field(default_factory=dict)
     current_path: dict[str, str] = field(default_factory=dict)
@@ -59,6 +62,7 @@ class SumoSimulation:
     departed: dict[str, float] = field(default_factory=dict)
     arrived: dict[str, float] = field(default_factory=dict)
     commands: dict[str, float] = field(default_factory=dict)  # [m/s^2] held accel per vehicle
+    switched: set[str] = field(default_factory=set)  # vehicles moved onto another connection
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
 
     def start(self, sumocfg: str, extra: list[str] | None = None) -> None:
@@ -85,6 +89,7 @@ class SumoSimulation:
             if info.start_s is not None:
                 lane, pos = self.paths[info.intended_path].lane_at(info.start_s)
                 libsumo.vehicle.moveTo(vid, lane, pos)
+                self.switched.add(vid)  # moveTo resets its arrival position (see _arrive_switched)
         for vid in libsumo.simulation.getArrivedIDList():
             self.arrived[vid] = self.time
             self.states.pop(vid, None)
@@ -93,6 +98,7 @@ class SumoSimulation:
         for vid, res in results.items():
             self.states[vid] = res
             self._track_path(vid, res[libsumo.VAR_LANE_ID])
+        self._arrive_switched()
         # Vehicles moved by moveTo report their new lane only after the next read; refresh them.
         for vid in libsumo.simulation.getDepartedIDList():
             info = self.vehicles.get(vid)
@@ -131,8 +137,31 @@ class SumoSimulation:
         s = old.lane_starts[old.lanes.index(lane)] + libsumo.vehicle.getLanePosition(vid)
         new_lane, new_pos = target.lane_at(min(s, target.s_exit - 0.01))
         libsumo.vehicle.moveTo(vid, new_lane, new_pos)
+        self.switched.add(vid)
         self.current_path[vid] = target_id
         self.states[vid] = {v: _get(vid, v) for v in _VARS}
+
+    def _arrive_switched(self) -> None:
+        """End the trip of vehicles whose connection was switched, at the routes' arrivalPos.
+
+        SUMO 1.28 resets a vehicle's arrival position to the end of its route when moveTo puts
+        it on another junction-internal lane (checked with setRoute, changeTarget and
+        setParameter, none of which restores it), so the adapter applies the same rule itself:
+        the vehicle arrives once its front is ``exit_distance`` into the exit lane. SUMO then
+        writes its tripinfo as for any arrival.
+        """
+        for vid in list(self.switched):
+            st = self.states.get(vid)
+            if st is None:
+                self.switched.discard(vid)
+                continue
+            if "_out_" in st[libsumo.VAR_LANE_ID] and st[libsumo.VAR_LANEPOSITION] >= self.exit_distance:
+                libsumo.vehicle.unsubscribe(vid)  # a removed vehicle's subscription fails the next step
+                libsumo.vehicle.remove(vid, libsumo.REMOVE_ARRIVED)
+                self.arrived[vid] = self.time
+                self.states.pop(vid, None)
+                self.commands.pop(vid, None)
+                self.switched.discard(vid)
 
     # --- read ------------------------------------------------------------------------------
     def world(self) -> World:
@@ -142,6 +171,7 @@ class SumoSimulation:
         s = np.empty(n)
         arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa")}
         path_ids, roles, lanes = [], [], []
+        exit_choices: dict[str, tuple[str, ...]] = {}
         for i, vid in enumerate(ids):
             st = self.states[vid]
             pid = self.current_path[vid]
@@ -157,10 +187,14 @@ class SumoSimulation:
             arr["kappa"][i] = info.kappa if info else 0.5
             path_ids.append(pid)
             lanes.append(lane)
+            if info is not None and "_in_" in lane and not info.exit_fixed:
+                exit_choices[vid] = LANE_USE[info.lane][info.movement]
+            else:
+                exit_choices[vid] = (path.exit_lane,)
             roles.append("passing" if lane.startswith(":") else ("ready" if "_in_" in lane else "outside"))
         return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
-                     lanes=lanes)
+                     lanes=lanes, exit_choices=exit_choices)
 
     # --- write -----------------------------------------------------------------------------
     def command(self, decisions: Decisions) -> None:
@@ -171,6 +205,10 @@ class SumoSimulation:
         for vid, lane in decisions.exit_lane.items():
             if vid in self.vehicles:
                 self.vehicles[vid].exit_lane = lane
+        for vid in decisions.release:
+            if self.commands.pop(vid, None) is not None and vid in self.states:
+                libsumo.vehicle.setSpeed(vid, -1)  # SUMO's own driver model takes over again
+                libsumo.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
 
     def write(self) -> None:
         """Write this SUMO step's speed commands: v + a * step for every commanded vehicle.

@@ -1,0 +1,417 @@
+"""``nash`` and ``stackelberg``: the paper's decision process (Algorithm 1) in the closed loop.
+
+Every control period, for the vehicles that are ready to enter or passing the conflict zone:
+
+1. **Risk and trigger.** Each controlled vehicle is expanded into one row per exit lane it may
+   still choose (Case 2's V3 has two). The ETM (:func:`~intersection_cosim.models.risk.event_trigger`,
+   Eqs. 9 and 39) evaluates Gamma_cp for every pair of rows of different vehicles whose paths
+   meet. A cross or confluence pair whose Gamma_cp exceeds Gamma_sf in any combination of exit
+   lanes plays a game; with the ETM off (``--no-etm``) every such pair that has not yet passed its
+   conflict point plays one, every step.
+2. **Leaders.** A leader-follower relation (same approach lane, or a confluence after the merge)
+   enters the follower's own cost as J_log (Eqs. 15-18) against the leader's predicted trajectory:
+   its previous plan shifted by one period when it is controlled, constant speed otherwise. The
+   leader does not care about its follower (its cost has no term for it), so this is not a game.
+3. **Games.** Each triggered pair plays the pairwise game of Algorithm 1 (Nash: iterated best
+   response; Stackelberg: the vehicle with the smaller TCP leads), warm-started from the pair's
+   previous plans shifted by one period. When a player may still choose its exit lane, the pair's
+   continuous game is solved for every combination of exit lanes and a pure equilibrium of the
+   resulting matrix game is taken (:func:`~intersection_cosim.games.lane_choice.lane_choice_game`);
+   leaving the preferred exit lane costs J_lk (Eq. 23).
+4. **Alone.** A vehicle in no game optimises its own cost with k_lat = 0 (its J_log and J_e only),
+   choosing its exit lane the same way among its own options.
+5. **Several games, one vehicle** (rule): the vehicle applies the plan of the game whose first
+   acceleration is the lowest, and takes that game's exit lane. Why this is safe: every game's
+   plan for the vehicle keeps the safety cost of *that* pair low given the partner's equilibrium
+   plan. Taking the lowest acceleration keeps the vehicle at or behind the position each partner's
+   plan assumes over the next period, so a partner that planned to pass first only gains margin,
+   and a partner that planned to pass second sees the vehicle's actual, slower progress at the
+   next control step (0.1 s later), when the pair's game is played again from the measured
+   states. Braking harder than any single game asks is never needed: the lowest acceleration is
+   one of the games' own plans, bounded by a_min.
+
+Decisions are written back as accelerations (held over the period; the adapter turns them into
+exact speed commands) and exit lanes (enforced by the adapter when the vehicle enters the
+junction). A vehicle that has left the conflict zone is handed back to SUMO's driver model.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from intersection_cosim.control.base import ControlContext, Decisions, World
+from intersection_cosim.control.safety import krauss_safe_speed, occupancy, stopping_acceleration
+from intersection_cosim.games.lane_choice import lane_change_cost, lane_choice_game
+from intersection_cosim.games.nash import nash_equilibrium
+from intersection_cosim.games.problem import Interaction, Plan, Player, Problem, safe_plan, shift_plan
+from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.games.stackelberg import stackelberg_equilibrium
+from intersection_cosim.models.prediction import all_pairs
+from intersection_cosim.models.risk import event_trigger
+from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, load_conflict_table
+from intersection_cosim.network.spec import LANE_INDEX, LANE_USE, IntersectionSpec
+
+log = logging.getLogger(__name__)
+
+SOLVERS = {"nash": nash_equilibrium, "stackelberg": stackelberg_equilibrium}
+
+
+@dataclass
+class _Rows:
+    """The ETM's rows: one per (vehicle, exit lane it may take)."""
+
+    vehicle: np.ndarray  # (R,) index into the World
+    option: list[str]  # exit lane of the row
+    path: list[str]  # path id of the row
+
+
+@dataclass
+class _Leader:
+    vehicle: int  # World index of the leader
+    offset: float  # [m] leader's s in the follower's path = s_leader + offset
+    gap: float  # [m] distance along the shared stretch (front to front)
+
+
+@dataclass
+class _Game:
+    a: int  # World index of the first player (a < b)
+    b: int
+    combos: dict = field(default_factory=dict)  # (option a, option b) -> list of Interaction
+
+
+@dataclass
+class ConvergenceRecord:
+    """One game's solve: the data of the paper's Fig. 3."""
+
+    time: float  # [s]
+    vehicle_a: str
+    vehicle_b: str
+    solver: str
+    status: str
+    iterations: int
+    residuals: tuple[float, ...]  # [m/s^2] per iteration
+    costs: tuple[float, ...]  # [-] final cost of each player
+
+
+class GameController:
+    """The game-theoretic decision layer; ``equilibrium`` is ``"nash"`` or ``"stackelberg"``."""
+
+    controls_vehicles = True
+
+    def __init__(self, equilibrium: str, settings: GameSettings | None = None,
+                 junction_type: str = "priority"):
+        if equilibrium not in SOLVERS:
+            raise ValueError(equilibrium)
+        self.equilibrium = equilibrium
+        self.solver = SOLVERS[equilibrium]
+        self.gs = settings or GameSettings()
+        self.junction_type = junction_type
+        self.plans: dict[str, Plan] = {}  # plan applied at the last step, per vehicle
+        self.options: dict[str, str] = {}  # exit lane chosen at the last step
+        self.warm: dict[tuple, tuple[Plan, ...]] = {}  # game or solo key -> its last plans
+        self.controlled: set[str] = set()
+        self.convergence: list[ConvergenceRecord] = []
+        self.filtered = 0  # accelerations the safety filter lowered
+
+    # ------------------------------------------------------------------ setup
+    def setup(self, context: ControlContext) -> None:
+        self.ctx = context
+        self.model = context.model
+        self.paths = context.paths
+        if context.solver is not None:
+            self.gs = context.solver
+        self.table = load_conflict_table(context.net_file, context.model.vehicle_width)
+        self.etm = context.etm
+        self.shift = max(1, int(round(context.control_period / self.gs.dt)))
+
+    # ------------------------------------------------------------------ one step
+    def decide(self, world: World, deadline: float) -> Decisions:
+        ms = self.model
+        n = len(world)
+        ids = world.ids
+        active = [k for k in range(n) if world.role[k] != "outside"]
+        active_set = set(active)
+        decisions = Decisions()
+        decisions.release = sorted(self.controlled - {ids[k] for k in active})
+        self.controlled = {ids[k] for k in active}
+        for vid in decisions.release:
+            self.plans.pop(vid, None)
+        if not active:
+            return decisions
+
+        rows = self._rows(world, active_set)
+        self._rows_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
+        present = {ids[k] for k in active}
+        # Warm starts are keyed ("solo", vehicle, exit) or ("game", vehicle_a, vehicle_b, exit_a, exit_b).
+        self.warm = {key: v for key, v in self.warm.items()
+                     if all(x in present for x in (key[1:2] if key[0] == "solo" else key[1:3]))}
+        leaders, lateral = self._relations(world, rows, active_set)
+        games = self._games(rows, lateral)
+
+        in_game: dict[int, list[tuple[float, Plan, str]]] = {}
+        for game in games.values():
+            ka, kb = game.a, game.b
+            result, choice = self._play(world, game, leaders, deadline)
+            decisions.games += 1
+            decisions.iterations += result.iterations
+            decisions.pairs.append((ids[ka], ids[kb]))
+            for k, plan, option in ((ka, result.plans[0], choice[0]), (kb, result.plans[1], choice[1])):
+                in_game.setdefault(k, []).append((float(plan.accelerations[0]), plan, option))
+            self.convergence.append(ConvergenceRecord(
+                world.time, ids[ka], ids[kb], self.equilibrium, result.status, result.iterations,
+                tuple(float(r) for r in result.residuals), tuple(float(c) for c in result.costs)))
+
+        for k in active:
+            vid = ids[k]
+            if k in in_game:
+                _, plan, option = min(in_game[k], key=lambda e: e[0])  # the rule of the docstring
+            else:
+                plan, option = self._alone(world, k, leaders)
+            self.plans[vid] = plan
+            self.options[vid] = option
+            decisions.accel[vid] = float(plan.accelerations[0])
+            if len(world.exit_choices.get(vid, ())) > 1:
+                decisions.exit_lane[vid] = option
+        if self.gs.safety_filter:
+            self._safety_filter(world, rows, leaders, lateral, decisions)
+        return decisions
+
+    def _safety_filter(self, world: World, rows: _Rows, leaders, lateral, decisions: Decisions) -> None:
+        """Lower accelerations whose plans would collide (control/safety.py)."""
+        gs, ms = self.gs, self.model
+        period = self.ctx.control_period
+        ids, k_of = world.ids, rows.vehicle
+        chosen = [rows.option[r] == self.options.get(ids[k_of[r]]) for r in range(len(k_of))]
+        cap: dict[str, float] = {}
+        for r, lead in leaders.items():
+            vid = ids[k_of[r]]
+            if vid not in decisions.accel or not chosen[r]:
+                continue
+            gap = lead.gap - ms.vehicle_length - gs.safety_margin  # [m] bumper to bumper, less margin
+            v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -gs.a_min, period)
+            cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k_of[r]])) / period)
+        half, length = ms.vehicle_width / 2, ms.vehicle_length
+        for ri, rj, _kind, s_i, s_j, _play in lateral:
+            if not (chosen[ri] and chosen[rj]):
+                continue
+            ki, kj = int(k_of[ri]), int(k_of[rj])
+            pi, pj = self.plans.get(ids[ki]), self.plans.get(ids[kj])
+            if pi is None or pj is None:
+                continue
+            in_i, out_i = occupancy(pi, s_i, ms.vehicle_width, length)
+            in_j, out_j = occupancy(pj, s_j, ms.vehicle_width, length)
+            if in_i >= out_j + gs.safety_time_gap or in_j >= out_i + gs.safety_time_gap:
+                continue  # the plans keep the point clear
+            later_first = sorted(((in_i, ki, s_i), (in_j, kj, s_j)), key=lambda e: -e[0])
+            for _t_in, k, s_cp in later_first:
+                a = stopping_acceleration(float(world.s[k]), float(world.v[k]), s_cp - half - gs.safety_margin)
+                if a is not None and a >= gs.a_min:
+                    cap[ids[k]] = min(cap.get(ids[k], math.inf), a)
+                    break
+        for vid, limit in cap.items():
+            if limit < decisions.accel[vid]:
+                decisions.accel[vid] = max(limit, gs.a_min)
+                self.filtered += 1
+
+    def fallback(self, world: World) -> Decisions:
+        """The last plan shifted by one period, or comfortable braking where there is none."""
+        decisions = Decisions(fallback=True)
+        period = self.ctx.control_period
+        for k in range(len(world)):
+            vid = world.ids[k]
+            if world.role[k] == "outside":
+                continue
+            plan = self.plans.get(vid)
+            if plan is not None:
+                for _ in range(self.shift):
+                    plan = shift_plan(plan)
+                self.plans[vid] = plan
+                accel = float(plan.accelerations[0])
+            else:
+                accel = -self.gs.comfort_brake
+            decisions.accel[vid] = max(accel, -float(world.v[k]) / period)
+            self.controlled.add(vid)
+        return decisions
+
+    # ------------------------------------------------------------------ pieces
+    def _rows(self, world: World, active: set[int]) -> _Rows:
+        vehicle, option, path = [], [], []
+        for k in range(len(world)):
+            pid = world.path_ids[k]
+            opts = world.exit_choices.get(world.ids[k], ()) if k in active else ()
+            if len(opts) > 1:
+                base = pid.rsplit("_", 1)[0]
+                for o in opts:
+                    vehicle.append(k)
+                    option.append(o)
+                    path.append(f"{base}_{o}")
+            else:
+                vehicle.append(k)
+                option.append(self.paths[pid].exit_lane)
+                path.append(pid)
+        return _Rows(np.asarray(vehicle, dtype=np.intp), option, path)
+
+    def _relations(self, world: World, rows: _Rows, active: set[int]):
+        """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM."""
+        ms = self.model
+        r = len(rows.vehicle)
+        i, j = all_pairs(r)
+        keep = rows.vehicle[i] != rows.vehicle[j]
+        i, j = i[keep], j[keep]
+        k_of = rows.vehicle
+        risk = event_trigger(self.table, self.table.indices(rows.path), world.s[k_of], world.v[k_of],
+                             world.kappa[k_of], ms, pairs=(i, j))
+        leaders: dict[int, _Leader] = {}  # row -> nearest leader
+        lateral: list[tuple[int, int, str, float, float, bool]] = []
+        d_i = risk.s_cp_i - world.s[k_of[risk.i]]
+        d_j = risk.s_cp_j - world.s[k_of[risk.j]]
+        clear = ms.conflict_clearance
+        for m in range(len(risk.i)):
+            ri, rj = int(risk.i[m]), int(risk.j[m])
+            if risk.leader_follower[m]:
+                if min(d_i[m], d_j[m]) < -clear and risk.kind[m] != KIND_CONFLUENCE:
+                    continue  # the leader has left the shared stretch
+                lead, follow = (ri, rj) if d_i[m] < d_j[m] else (rj, ri)
+                s_cp_f = risk.s_cp_i[m] if follow == ri else risk.s_cp_j[m]
+                s_cp_l = risk.s_cp_j[m] if follow == ri else risk.s_cp_i[m]
+                gap = abs(d_i[m] - d_j[m])
+                if follow in leaders and leaders[follow].gap <= gap:
+                    continue
+                leaders[follow] = _Leader(int(k_of[lead]), float(s_cp_f - s_cp_l), float(gap))
+                continue
+            if risk.kind[m] not in (KIND_CROSS, KIND_CONFLUENCE):
+                continue
+            if k_of[ri] not in active or k_of[rj] not in active:
+                continue
+            if d_i[m] < -clear or d_j[m] < -clear:
+                continue  # one of them has passed the point: no lateral cost any more
+            play = bool(risk.trigger[m]) or not self.etm
+            kind = "cross" if risk.kind[m] == KIND_CROSS else "confluence"
+            lateral.append((ri, rj, kind, float(risk.s_cp_i[m]), float(risk.s_cp_j[m]), play))
+        return leaders, lateral
+
+    def _games(self, rows: _Rows, lateral) -> dict[tuple[int, int], _Game]:
+        """Vehicle pairs that play a game, with the interactions of each exit-lane combination."""
+        games: dict[tuple[int, int], _Game] = {}
+        triggered = {tuple(sorted((int(rows.vehicle[ri]), int(rows.vehicle[rj]))))
+                     for ri, rj, _, _, _, play in lateral if play}
+        for ri, rj, kind, s_i, s_j, _ in lateral:
+            ka, kb = int(rows.vehicle[ri]), int(rows.vehicle[rj])
+            if ka > kb:
+                ka, kb, ri, rj, s_i, s_j = kb, ka, rj, ri, s_j, s_i
+            if (ka, kb) not in triggered:
+                continue
+            game = games.setdefault((ka, kb), _Game(ka, kb))
+            make = Interaction.cross if kind == "cross" else Interaction.confluence
+            game.combos.setdefault((rows.option[ri], rows.option[rj]), []).append(make(0, 1, s_i, s_j))
+        return games
+
+    def _options(self, world: World, k: int) -> tuple[str, ...]:
+        opts = world.exit_choices.get(world.ids[k], ())
+        return tuple(opts) if len(opts) > 1 else (self.paths[world.path_ids[k]].exit_lane,)
+
+    def _lane_costs(self, world: World, k: int) -> dict[str, float]:
+        """J_lk of each exit lane: the lateral offset from the movement's preferred exit lane."""
+        path = self.paths[world.path_ids[k]]
+        preferred = LANE_USE[path.lane][path.movement][0]
+        width = IntersectionSpec().lane_width  # [m]
+        return {o: lane_change_cost(width * abs(LANE_INDEX[o] - LANE_INDEX[preferred]), self.model)
+                for o in self._options(world, k)}
+
+    def _leader_trajectory(self, world: World, leader: _Leader) -> tuple[np.ndarray, np.ndarray]:
+        """Leader's predicted positions (in its own path) and speeds s_1..s_N, v_1..v_N."""
+        gs = self.gs
+        k = leader.vehicle
+        plan = self.plans.get(world.ids[k])
+        if plan is not None:
+            for _ in range(self.shift):
+                plan = shift_plan(plan)
+            plan = Plan.from_accelerations(float(world.s[k]), float(world.v[k]), plan.accelerations, gs.dt)
+        else:
+            plan = Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(gs.steps), gs.dt)
+        return plan.positions[1:], plan.speeds[1:]
+
+    def _player(self, world: World, k: int, option: str, leaders: dict[int, _Leader],
+                rows_of: dict[tuple[int, str], int], partner: int | None = None) -> Player:
+        row = rows_of[(k, option)]
+        leader = leaders.get(row)
+        exo = None
+        if leader is not None and leader.vehicle != partner:
+            s_l, v_l = self._leader_trajectory(world, leader)
+            exo = (s_l + leader.offset, v_l)
+        return Player(s0=float(world.s[k]), v0=float(world.v[k]), kappa=float(world.kappa[k]),
+                      name=world.ids[k], leader=exo)
+
+    def _play(self, world: World, game: _Game, leaders, deadline: float):
+        ka, kb = game.a, game.b
+        rows_of = self._rows_of
+        opts_a, opts_b = self._options(world, ka), self._options(world, kb)
+        problems, warm = {}, {}
+        for oa in opts_a:
+            for ob in opts_b:
+                inters = list(game.combos.get((oa, ob), []))
+                for f, l, of, ol in ((ka, kb, oa, ob), (kb, ka, ob, oa)):
+                    lead = leaders.get(rows_of[(f, of)])
+                    if lead is not None and lead.vehicle == l:
+                        inters.append(Interaction.following(0 if f == ka else 1, 0 if l == ka else 1, lead.offset))
+                pa = self._player(world, ka, oa, leaders, rows_of, partner=kb)
+                pb = self._player(world, kb, ob, leaders, rows_of, partner=ka)
+                problems[(oa, ob)] = Problem((pa, pb), tuple(inters))
+                key = ("game", world.ids[ka], world.ids[kb], oa, ob)
+                if key in self.warm:
+                    warm[(oa, ob)] = self._shifted(self.warm[key])
+        kwargs = {"deadline": deadline}
+        if len(problems) == 1:
+            (combo, problem), = problems.items()
+            result = self.solver(problem, self.gs, self.model, warm_start=warm.get(combo), **kwargs)
+            choice = combo
+        else:
+            lc = lane_choice_game(problems, [self._lane_costs(world, ka), self._lane_costs(world, kb)],
+                                  solver=self.solver, settings=self.gs, model_settings=self.model,
+                                  warm_starts=warm, **kwargs)
+            result, choice = lc.result, lc.choice
+        if result.status != "solver failure":
+            self.warm[("game", world.ids[ka], world.ids[kb], *choice)] = result.plans
+        else:
+            log.warning("t=%.2f s: %s game %s-%s: solver failure (%s); braking comfortably",
+                        world.time, self.equilibrium, world.ids[ka], world.ids[kb], result.message)
+        return result, choice
+
+    def _alone(self, world: World, k: int, leaders) -> tuple[Plan, str]:
+        """Best response of a vehicle in no game (k_lat = 0), with its exit-lane choice."""
+        rows_of = self._rows_of
+        vid = world.ids[k]
+        opts = self._options(world, k)
+        problems, warm = {}, {}
+        for o in opts:
+            problems[(o,)] = Problem((self._player(world, k, o, leaders, rows_of),), ())
+            if ("solo", vid, o) in self.warm:
+                warm[(o,)] = self._shifted(self.warm[("solo", vid, o)])
+        if len(problems) == 1:
+            (combo, problem), = problems.items()
+            result = nash_equilibrium(problem, self.gs, self.model, warm_start=warm.get(combo))
+            choice = combo
+        else:
+            lc = lane_choice_game(problems, [self._lane_costs(world, k)], solver=nash_equilibrium,
+                                  settings=self.gs, model_settings=self.model, warm_starts=warm)
+            result, choice = lc.result, lc.choice
+        plan = result.plans[0]
+        if result.status == "solver failure":
+            log.warning("t=%.2f s: best response of %s failed (%s); braking comfortably",
+                        world.time, vid, result.message)
+            plan = safe_plan(problems[choice].players[0], self.gs)
+        else:
+            self.warm[("solo", vid, choice[0])] = result.plans
+        return plan, choice[0]
+
+    def _shifted(self, plans: tuple[Plan, ...]) -> tuple[Plan, ...]:
+        out = []
+        for p in plans:
+            for _ in range(self.shift):
+                p = shift_plan(p)
+            out.append(p)
+        return tuple(out)

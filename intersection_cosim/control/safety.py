@@ -1,0 +1,61 @@
+"""A safety filter on the game controller's accelerations (not in the paper).
+
+The paper's running cost makes collisions expensive, not impossible: J_lat and J_log are bounded
+by 1 / eps, so two aggressive players (Case 1 D) can find an equilibrium in which both cross the
+conflict point at nearly the same time, and an aggressive follower can plan into its leader. SUMO
+itself never lets that happen to its own vehicles (its safe-speed and right-of-way checks, which
+the controller switches off). This filter is the controller's equivalent, applied after the
+games; it only ever *lowers* an acceleration, and only when the plans of this step would collide:
+
+* **Conflict points.** For each cross / confluence pair, each vehicle's planned occupancy of the
+  point is the interval from its front reaching ``s_cp - W/2`` to its rear leaving ``s_cp + W/2``
+  (W vehicle width). If the two intervals come closer than ``safety_time_gap``, the vehicle that
+  would enter later yields: it brakes so that it can stop ``safety_margin`` before the point
+  (a = -v^2 / 2d, at most |a_min|). If it can no longer stop, it is committed and the other one
+  yields instead, if it can.
+* **Leaders.** A follower's acceleration is capped by the safe speed of Krauss' car-following
+  model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + v_L^2 + 2 b (gap - margin)), with
+  b = |a_min| and tau = the control period, so it can always stop behind a leader that brakes as
+  hard as it can.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from intersection_cosim.games.problem import Plan
+
+
+def occupancy(plan: Plan, s_cp: float, width: float, length: float) -> tuple[float, float]:
+    """[s] (enter, leave): when the planned front reaches ``s_cp - width/2`` and the rear leaves
+    ``s_cp + width/2``; ``inf`` where that is beyond the plan's horizon."""
+    t = np.arange(len(plan.positions)) * plan.dt
+    pos = plan.positions
+    return _first_reach(t, pos, s_cp - width / 2), _first_reach(t, pos, s_cp + width / 2 + length)
+
+
+def _first_reach(t: np.ndarray, pos: np.ndarray, target: float) -> float:
+    if pos[0] >= target:
+        return 0.0
+    k = int(np.argmax(pos >= target))
+    if pos[k] < target:
+        return math.inf
+    return float(t[k - 1] + (target - pos[k - 1]) / max(pos[k] - pos[k - 1], 1e-9) * (t[k] - t[k - 1]))
+
+
+def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:
+    """[m/s^2] constant acceleration that stops from speed ``v`` [m/s] at arc length ``stop_at``
+    [m], or None if the vehicle is already there."""
+    d = stop_at - s
+    if d <= 0.0:
+        return None
+    return -v * v / (2.0 * d)
+
+
+def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float) -> float:
+    """[m/s] Krauss' safe speed behind a leader ``gap`` [m] ahead (bumper to bumper) at
+    ``v_leader`` [m/s], for maximum deceleration ``decel`` [m/s^2] and reaction time ``tau`` [s]."""
+    bt = decel * tau
+    return -bt + math.sqrt(max(bt * bt + v_leader * v_leader + 2.0 * decel * max(gap, 0.0), 0.0))
