@@ -47,6 +47,7 @@ from intersection_cosim.control.base import ControlContext, Decisions, World
 from intersection_cosim.control.safety import krauss_safe_speed, occupancy, stopping_acceleration
 from intersection_cosim.games.lane_choice import lane_change_cost, lane_choice_game
 from intersection_cosim.games.nash import nash_equilibrium
+from intersection_cosim.games.qp import reset_workspaces
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem, safe_plan, shift_plan
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
@@ -127,6 +128,17 @@ class GameController:
         self.table = load_conflict_table(context.net_file, context.model.vehicle_width)
         self.etm = context.etm
         self.shift = max(1, int(round(context.control_period / self.gs.dt)))
+        reset_workspaces()
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Solve one small game before the first step, so that OSQP's workspaces and the lazy
+        imports are built outside the timed control loop (otherwise the first step can overrun
+        its budget, and a fallback there would make the run depend on the machine's speed)."""
+        problem = Problem((Player(0.0, 5.0, 0.5), Player(0.0, 5.0, 0.5)),
+                          (Interaction.cross(0, 1, 15.0, 14.0),))
+        self.solver(problem, self.gs, self.model)
+        nash_equilibrium(Problem((Player(0.0, 5.0, 0.5),)), self.gs, self.model)
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
@@ -150,6 +162,7 @@ class GameController:
         self.warm = {key: v for key, v in self.warm.items()
                      if all(x in present for x in (key[1:2] if key[0] == "solo" else key[1:3]))}
         leaders, lateral = self._relations(world, rows, active_set)
+        self._effective = self._effective_options(world, rows, leaders, lateral)
         games = self._games(rows, lateral)
 
         in_game: dict[int, list[tuple[float, Plan, str]]] = {}
@@ -305,14 +318,45 @@ class GameController:
                 ka, kb, ri, rj, s_i, s_j = kb, ka, rj, ri, s_j, s_i
             if (ka, kb) not in triggered:
                 continue
+            if rows.option[ri] not in self._effective[ka] or rows.option[rj] not in self._effective[kb]:
+                continue
             game = games.setdefault((ka, kb), _Game(ka, kb))
             make = Interaction.cross if kind == "cross" else Interaction.confluence
             game.combos.setdefault((rows.option[ri], rows.option[rj]), []).append(make(0, 1, s_i, s_j))
         return games
 
     def _options(self, world: World, k: int) -> tuple[str, ...]:
-        opts = world.exit_choices.get(world.ids[k], ())
-        return tuple(opts) if len(opts) > 1 else (self.paths[world.path_ids[k]].exit_lane,)
+        """Exit lanes worth deciding between for vehicle ``k`` this step."""
+        return self._effective[k]
+
+    def _effective_options(self, world: World, rows: _Rows, leaders, lateral) -> dict[int, tuple[str, ...]]:
+        """Per vehicle, the exit lanes whose choice changes whom it interacts with.
+
+        An exit lane matters only if it changes the vehicle's partners: whom it crosses or merges
+        with, or whom it follows (Case 2's V3: behind V4 on the inner lane, or merging with V1 on
+        the middle lane). Where every option gives the same partners (Case 1's left turns cross
+        the same vehicles whichever exit lane they take), only the preferred one is solved: the
+        previous step's choice, else the movement's default lane. This keeps the lane-choice
+        matrix game for the decisions it is for, at one continuous solve otherwise.
+        """
+        partners: dict[int, set] = {r: set() for r in range(len(rows.vehicle))}
+        for ri, rj, *_ in lateral:
+            partners[ri].add(int(rows.vehicle[rj]))
+            partners[rj].add(int(rows.vehicle[ri]))
+        sig: dict[int, dict[str, tuple]] = {}
+        for r, k in enumerate(rows.vehicle):
+            lead = leaders.get(r)
+            sig.setdefault(int(k), {})[rows.option[r]] = (frozenset(partners[r]),
+                                                           lead.vehicle if lead else None)
+        out = {}
+        for k, by_option in sig.items():
+            opts = tuple(by_option)
+            if len(opts) > 1 and len(set(by_option.values())) == 1:
+                path = self.paths[world.path_ids[k]]
+                previous = self.options.get(world.ids[k])
+                opts = (previous if previous in by_option else LANE_USE[path.lane][path.movement][0],)
+            out[k] = opts
+        return out
 
     def _lane_costs(self, world: World, k: int) -> dict[str, float]:
         """J_lk of each exit lane: the lateral offset from the movement's preferred exit lane."""

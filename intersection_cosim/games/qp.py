@@ -150,6 +150,13 @@ class QPWorkspace:
         return QPSolution(x, y, H, "solved", iters, rs / scale)
 
 
+def reset_workspaces() -> None:
+    """Drop this thread's workspaces. OSQP warm-starts from a workspace's last solution, so a
+    closed-loop run calls this first: its results then do not depend on what the process
+    solved before (two runs of one scenario in one process give identical trajectories)."""
+    _local.pool = {}
+
+
 def workspace(n: int, gs: GameSettings, slot: object = 0) -> QPWorkspace:
     """The thread's workspace for N = ``n`` and ``slot``, created on first use."""
     pool = getattr(_local, "pool", None)

@@ -1,0 +1,137 @@
+"""The game controllers in the closed loop with real SUMO: the paper's 24 runs and the scheduler."""
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from intersection_cosim.control.game import GameController
+from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.scenario import load_scenario, with_overrides
+
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+CASES = ["case1_A", "case1_B", "case1_C", "case1_D", "case2_A", "case2_B"]
+STACKELBERG_TOLERANCE = 0.2  # [s] Stackelberg's min TTC may fall this far below Nash's
+# The paper runs test decisions, not this machine's load: with a budget that binds, a step's
+# result depends on wall time by design (the HIL emulation), which the scheduler tests cover.
+GENEROUS_BUDGET_MS = 2000.0
+
+
+def _run(tmp: Path, case: str, controller: str, etm: bool = True, **overrides) -> Path:
+    out = tmp / f"{case}-{controller}-{'etm' if etm else 'noetm'}"
+    scn = with_overrides(load_scenario(SCENARIOS / f"{case}.toml"), controller=controller,
+                         etm=None if etm else False, **overrides)
+    run_scenario(scn, out)
+    return out
+
+
+@pytest.fixture(scope="module")
+def paper_runs(tmp_path_factory):
+    """All 24 paper runs: six scenarios x Nash / Stackelberg x trigger on / off."""
+    tmp = tmp_path_factory.mktemp("paper")
+    return {(case, c, etm): _run(tmp, case, c, etm, budget_ms=GENEROUS_BUDGET_MS) for case in CASES
+            for c in ("nash", "stackelberg") for etm in (True, False)}
+
+
+def _vehicles(run: Path) -> pd.DataFrame:
+    return pd.read_csv(run / "vehicles.csv").set_index("vehicle")
+
+
+def _pairs(run: Path) -> pd.Series:
+    p = pd.read_csv(run / "pairs.csv")
+    return pd.Series(p["min_ttc"].to_numpy(), index=p["vehicle_a"] + "-" + p["vehicle_b"])
+
+
+@pytest.mark.slow
+def test_all_24_runs_arrive_without_collision(paper_runs):
+    assert len(paper_runs) == 24
+    for key, run in paper_runs.items():
+        vehicles = _vehicles(run)
+        assert vehicles["arrival"].notna().all(), key
+        assert not vehicles["collided"].any(), key
+        assert pd.read_csv(run / "steps.csv")["fallback"].sum() == 0, key
+
+
+@pytest.mark.slow
+def test_games_are_played_and_the_trigger_plays_fewer(paper_runs):
+    for case in ("case1_A", "case2_A"):
+        for c in ("nash", "stackelberg"):
+            with_etm = pd.read_csv(paper_runs[(case, c, True)] / "steps.csv")["games"].sum()
+            without = pd.read_csv(paper_runs[(case, c, False)] / "steps.csv")["games"].sum()
+            assert 0 < with_etm < without, (case, c, with_etm, without)
+    pairs = pd.read_csv(paper_runs[("case1_A", "nash", False)] / "pairs.csv")
+    assert (pairs["game_steps"] > 0).all()
+
+
+@pytest.mark.slow
+def test_case1_aggressive_v1_is_faster_cautious_v2_v3_are_slower(paper_runs):
+    for c in ("nash", "stackelberg"):
+        a, b, cc = (_vehicles(paper_runs[(f"case1_{s}", c, True)]) for s in "ABC")
+        assert cc.loc["V1", "travel_time"] < a.loc["V1", "travel_time"], c  # kappa_V1 0.8 vs 0.5
+        for vid in ("V2", "V3"):  # kappa 0.2 in B vs 0.5 in A
+            assert b.loc[vid, "travel_time"] > a.loc[vid, "travel_time"], (c, vid)
+
+
+@pytest.mark.slow
+def test_stackelberg_min_ttc_not_below_nash(paper_runs):
+    for case in CASES:
+        nash = _pairs(paper_runs[(case, "nash", True)])
+        stack = _pairs(paper_runs[(case, "stackelberg", True)])
+        for pair in nash.index.intersection(stack.index):
+            if np.isfinite(nash[pair]) and np.isfinite(stack[pair]):
+                assert stack[pair] >= nash[pair] - STACKELBERG_TOLERANCE, (case, pair)
+
+
+@pytest.mark.slow
+def test_case2_b_v3_follows_v4_on_the_inner_lane_without_v1_conflict(paper_runs):
+    for c in ("nash", "stackelberg"):
+        run = paper_runs[("case2_B", c, True)]
+        assert _vehicles(run).loc["V3", "exit_lane"] == "inner"
+        pairs = _pairs(run)
+        assert "V1-V3" not in pairs.index
+        assert "V3-V4" in pairs.index
+
+
+@pytest.mark.slow
+def test_realised_speed_is_the_commanded_speed(paper_runs):
+    traj = pd.read_csv(paper_runs[("case2_A", "nash", True)] / "trajectories.csv")
+    checked = 0
+    for _, g in traj.groupby("vehicle"):
+        g = g.sort_values("time")
+        cmd = g["accel_cmd"].to_numpy()[:-1]
+        v0, v1 = g["speed"].to_numpy()[:-1], g["speed"].to_numpy()[1:]
+        dt = np.diff(g["time"].to_numpy())
+        ok = np.isfinite(cmd) & np.isclose(dt, 0.1)
+        expected = np.maximum(v0 + cmd * 0.1, 0.0)
+        # speeds are written with 4 decimals
+        assert np.allclose(v1[ok], expected[ok], atol=2e-4)
+        checked += ok.sum()
+    assert checked > 100
+
+
+@pytest.mark.slow
+def test_same_seed_same_trajectories(paper_runs, tmp_path):
+    again = _run(tmp_path, "case1_A", "nash", budget_ms=GENEROUS_BUDGET_MS)
+    first = paper_runs[("case1_A", "nash", True)]
+    assert (again / "trajectories.csv").read_text() == (first / "trajectories.csv").read_text()
+
+
+@pytest.mark.slow
+def test_slow_solver_gets_the_fallback_and_causes_no_collision(tmp_path, monkeypatch):
+    decide = GameController.decide
+
+    def slow(self, world, deadline):
+        if 1.0 <= world.time < 2.0:  # one simulated second of overruns
+            time.sleep(0.03)
+        return decide(self, world, deadline)
+
+    monkeypatch.setattr(GameController, "decide", slow)
+    run = _run(tmp_path, "case1_A", "nash", budget_ms=20.0)
+    steps = pd.read_csv(run / "steps.csv")
+    slow_steps = steps[(steps["time"] >= 1.0) & (steps["time"] < 2.0)]
+    assert slow_steps["deadline_missed"].all() and slow_steps["fallback"].all()
+    assert not steps.loc[steps["time"] >= 2.05, "fallback"].any()
+    vehicles = _vehicles(run)
+    assert vehicles["arrival"].notna().all() and not vehicles["collided"].any()
