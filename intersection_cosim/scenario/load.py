@@ -259,7 +259,7 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
     if not vehicles and not flows:
         raise InputError(src, "vehicle", [], "a scenario needs at least one [[vehicle]] or [[flow]]")
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, solver=solver_settings,
-                    vehicles=tuple(vehicles), flows=tuple(flows))
+                    solver_table=dict(solver), vehicles=tuple(vehicles), flows=tuple(flows))
 
 
 def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | None = None,
@@ -274,6 +274,7 @@ def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | 
         if controller not in registry.names():
             raise InputError("--controller", "controller", controller, f"must be one of {', '.join(registry.names())}")
         ctrl = dataclasses.replace(ctrl, kind=controller)
+        scn = dataclasses.replace(scn, solver=registry.validate_solver_table(controller, scn.solver_table, scn.source))
     fields = {k: v for k, v in controller_fields.items() if v is not None}
     if fields:
         ctrl = dataclasses.replace(ctrl, **fields)

@@ -100,6 +100,7 @@ class Scenario:
     scenario: ScenarioSettings
     controller: ControllerSettings
     model: ModelSettings
-    solver: dict = field(default_factory=dict)  # [controller.solver] table, read by game controllers
+    solver: object = None  # the controller's validated [controller.solver] settings (None: takes none)
+    solver_table: dict = field(default_factory=dict)  # the raw table, re-validated on --controller
     vehicles: tuple[VehicleSpec, ...] = ()
     flows: tuple[FlowSpec, ...] = ()

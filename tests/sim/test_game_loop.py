@@ -9,6 +9,7 @@ import pytest
 
 from intersection_cosim.control.game import GameController
 from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.report.metrics import body_overlaps
 from intersection_cosim.scenario import load_scenario, with_overrides
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
@@ -135,3 +136,11 @@ def test_slow_solver_gets_the_fallback_and_causes_no_collision(tmp_path, monkeyp
     assert not steps.loc[steps["time"] >= 2.05, "fallback"].any()
     vehicles = _vehicles(run)
     assert vehicles["arrival"].notna().all() and not vehicles["collided"].any()
+
+
+@pytest.mark.slow
+def test_no_two_bodies_ever_overlap(paper_runs):
+    """An independent geometric check next to SUMO's collision count."""
+    for key, run in paper_runs.items():
+        traj = pd.read_csv(run / "trajectories.csv")
+        assert body_overlaps(traj, 4.5, 1.8) == [], key
