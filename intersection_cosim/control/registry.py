@@ -63,6 +63,11 @@ def _load_builtin() -> None:
 
     register("sumo", Entry(lambda scn: SumoController(junction_type=scn.scenario.junction_type),
                            None, "SUMO's own driver model and right of way"))
+    for name, jtype, what in (("sumo-priority", "priority", "priority junction (right of way by road priority)"),
+                              ("sumo-allway-stop", "allway_stop", "all-way stop"),
+                              ("sumo-tls", "traffic_light", "traffic lights, SUMO's default signal programme")):
+        register(name, Entry(lambda scn, jtype=jtype: SumoController(junction_type=jtype),
+                             None, f"baseline: SUMO's driver model at a {what}"))
 
     from intersection_cosim.control.game import GameController
     from intersection_cosim.games.settings import GameSettings
@@ -70,3 +75,8 @@ def _load_builtin() -> None:
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
         register(name, Entry(lambda scn, name=name: GameController(name, scn.solver),
                              GameSettings, f"the paper's differential game, {what} equilibrium"))
+
+    from intersection_cosim.control.fcfs import FcfsController, FcfsSettings
+
+    register("fcfs", Entry(lambda scn: FcfsController(scn.solver), FcfsSettings,
+                           "first-come-first-served reservation of the conflict points (Dresner and Stone)"))

@@ -1,0 +1,348 @@
+"""``fcfs``: first-come-first-served reservation of the conflict points (Dresner and Stone's AIM).
+
+A baseline without games: an intersection manager grants each vehicle time slots at the conflict
+points on its path, in the order in which the vehicles could reach the conflict zone.
+
+Units: arc lengths s [m] along the vehicle's movement path (network/paths.py), speeds [m/s],
+accelerations [m/s^2], times [s] of simulation time.
+
+**Profiles.** A vehicle's plan is an *arrival* at its path's stop line ``s_stop`` at time ``T_a``
+with speed ``v_a``; from there it accelerates at ``comfort_accel`` up to ``v_max`` (ModelSettings)
+through the junction. A vehicle already past the stop line "arrives" where it is, now, at its speed.
+Its *earliest* arrival ``T_e`` (speed ``v_e``) is that of accelerating at ``comfort_accel`` to
+``v_max`` from its current state; a later arrival ``T_a > T_e`` is flown at "constant-ish" speed:
+constant acceleration covering the distance d to the line in ``T_a - t``, so
+``v_a = min(2 d / (T_a - t) - v, v_e)``; where that would be negative the vehicle brakes to a stop
+just before the line and starts from rest at ``T_a`` (``v_a = 0``).
+
+**Occupancy.** At a cross or confluence point at arc length ``s_cp`` (ConflictTable) a vehicle
+occupies the point from its front reaching ``s_cp - W/2`` until its front reaches
+``s_cp + W/2 + L`` (the rear has left; W width, L length, ModelSettings). Two vehicles from the
+same approach lane (a *following* pair) share a "stop-line point": from the front reaching
+``s_stop`` until it reaches ``s_stop + L + follow_gap``. Two occupancies at the same point
+*collide* if they come closer than ``buffer`` [s].
+
+**Rule, every control period.**
+
+1. Vehicles that are committed keep their grant: those inside the junction (or past the stop
+   line), those that can no longer stop before the stop line at ``max_brake``, and vehicles
+   already released (on the exit lane, SUMO-driven) until their rear has cleared every point.
+   A committed vehicle's reserved interval at each point is the union of its granted slot and
+   its prediction from the current state, so a vehicle that runs late keeps the point.
+2. The others (approaching) are re-planned in the order of their earliest arrival ``T_e`` (ties
+   by id; on one approach lane never before the vehicle ahead). Each tries the arrival times
+   ``T_e, T_e + slot_step, ...`` (up to ``max_delay``) and takes the first whose occupancies of
+   all its points collide with no grant made before it (committed vehicles and vehicles earlier
+   in the order). That delays it until after the granted slots (the latest start it needs across
+   its points, to within ``slot_step``).
+3. Commands: a vehicle granted its earliest arrival, or past the stop line, accelerates at
+   ``comfort_accel`` to ``v_max``; a delayed one applies the constant acceleration of its slot
+   (or brakes to stop before the line, ``stopping_acceleration``), clipped to
+   ``[-max_brake, comfort_accel]``. Every command is capped by Krauss' safe speed
+   (``krauss_safe_speed``, control/safety.py) behind the vehicle's leader: the nearest vehicle
+   ahead on a shared stretch (same approach lane, or the same exit lane after a merge point).
+4. Vehicles that have left the conflict zone (role ``outside``) are released to SUMO.
+
+The controller also fixes each vehicle's exit lane to its path's (``Decisions.exit_lane``) so that
+the points it reserved are the ones it drives through.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from intersection_cosim.control.base import ControlContext, Decisions, World
+from intersection_cosim.control.safety import krauss_safe_speed, stopping_acceleration
+from intersection_cosim.network.conflicts import (
+    KIND_CONFLUENCE,
+    KIND_CROSS,
+    KIND_FOLLOWING,
+    load_conflict_table,
+)
+from intersection_cosim.settings import positive
+
+
+@dataclass(frozen=True)
+class FcfsSettings:
+    """Parameters of the ``fcfs`` controller (``[controller.solver]``)."""
+
+    buffer: float = 0.5  # [s] least time between two vehicles' occupancies of one point
+    comfort_accel: float = 2.0  # [m/s^2] acceleration of the target speed profile
+    max_brake: float = 4.0  # [m/s^2] hardest braking (commitment test, Krauss' b, clip)
+    follow_gap: float = 1.0  # [m] stop-line headway distance beyond L; stop this far before the line
+    slot_step: float = 0.1  # [s] resolution of the arrival times tried
+    max_delay: float = 120.0  # [s] latest arrival tried after the earliest one
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = positive(self, "comfort_accel", "max_brake", "slot_step", "max_delay")
+        if not self.buffer >= 0:
+            problems.append(("buffer", "must be >= 0"))
+        if not self.follow_gap >= 0:
+            problems.append(("follow_gap", "must be >= 0"))
+        return problems
+
+
+def time_to_cover(d, v0, accel: float, v_max: float):
+    """[s] time to cover ``d`` [m] (>= 0; negative counts as 0) from speed ``v0`` [m/s],
+    accelerating at ``accel`` up to ``v_max``; vectorised (numpy broadcasting)."""
+    d = np.maximum(np.asarray(d, float), 0.0)
+    v0 = np.clip(np.asarray(v0, float), 0.0, v_max)
+    d_acc = (v_max ** 2 - v0 ** 2) / (2.0 * accel)
+    t_acc = (np.sqrt(v0 ** 2 + 2.0 * accel * np.minimum(d, d_acc)) - v0) / accel
+    return t_acc + np.maximum(d - d_acc, 0.0) / v_max
+
+
+def free_slot(enter: np.ndarray, leave: np.ndarray, busy_in: np.ndarray, busy_out: np.ndarray,
+              point: np.ndarray, busy_point: np.ndarray, buffer: float) -> int:
+    """Index of the first candidate whose occupancies collide with no busy interval, or -1.
+
+    ``enter``, ``leave``: (K, P) [s] occupancy of each of the vehicle's P points for each of K
+    candidate arrival times; ``point`` (P,) the points' keys (ints). ``busy_in``, ``busy_out``
+    (G,) [s] the granted intervals at points ``busy_point`` (G,). Two intervals collide when they
+    come closer than ``buffer`` [s]. Pure numpy, no SUMO.
+    """
+    if busy_in.size == 0 or enter.shape[1] == 0:
+        return 0
+    same = point[:, None] == busy_point[None, :]  # (P, G)
+    p_idx, g_idx = np.nonzero(same)
+    if p_idx.size == 0:
+        return 0
+    e, l_ = enter[:, p_idx], leave[:, p_idx]  # (K, M)
+    clash = (e < busy_out[g_idx] + buffer) & (busy_in[g_idx] < l_ + buffer)
+    ok = ~clash.any(axis=1)
+    return int(np.argmax(ok)) if ok.any() else -1
+
+
+@dataclass
+class Grant:
+    """A vehicle's reservation: arrival (time, speed) and its slot at each point."""
+
+    t_arrive: float  # [s] when the front reaches the stop line (or now, past it)
+    v_arrive: float  # [m/s]
+    earliest: bool  # the vehicle was granted its earliest arrival
+    slots: dict = field(default_factory=dict)  # point key -> (enter, leave) [s]
+
+
+class FcfsController:
+    """First-come-first-served reservation controller (see the module docstring)."""
+
+    controls_vehicles = True
+    junction_type = "priority"
+
+    def __init__(self, settings: FcfsSettings | None = None):
+        self.fs = settings if isinstance(settings, FcfsSettings) else FcfsSettings()
+        self.grants: dict[str, Grant] = {}
+        self.committed: set[str] = set()
+        self.controlled: set[str] = set()
+        self.history: dict[str, dict] = {}  # vehicle -> its slots when it committed (for checks)
+
+    def setup(self, context: ControlContext) -> None:
+        self.ctx = context
+        if isinstance(context.solver, FcfsSettings):
+            self.fs = context.solver
+        self.paths = context.paths
+        self.model = context.model
+        self.table = load_conflict_table(context.net_file, context.model.vehicle_width)
+        self._approach_lane = {pid: p.approach_lane for pid, p in self.paths.items()}
+        self._point_key: dict = {}
+
+    def _key(self, *parts) -> int:
+        return self._point_key.setdefault(parts, len(self._point_key))
+
+    # ------------------------------------------------------------------ points
+    def _points(self, pid: str, others: set[str]):
+        """The points of path ``pid`` shared with any path in ``others``: keys and the arc-length
+        window [s_in, s_out] [m] over which the front bumper occupies each."""
+        fs, ms = self.fs, self.model
+        half, length = ms.vehicle_width / 2, ms.vehicle_length
+        p = self.table.index[pid]
+        path = self.paths[pid]
+        keys, s_in, s_out = [], [], []
+        for q_id in others:
+            q = self.table.index[q_id]
+            kind = self.table.kind[p, q]
+            if kind in (KIND_CROSS, KIND_CONFLUENCE):
+                s_cp = float(self.table.s_a[p, q])
+                keys.append(self._key("cp", *sorted((pid, q_id))))
+                s_in.append(s_cp - half)
+                s_out.append(s_cp + half + length)
+        if any(self.table.kind[p, self.table.index[q_id]] == KIND_FOLLOWING for q_id in others):
+            keys.append(self._key("line", path.approach_lane))
+            s_in.append(path.s_stop)
+            s_out.append(path.s_stop + length + fs.follow_gap)
+        return np.asarray(keys, np.int64), np.asarray(s_in), np.asarray(s_out)
+
+    def _occupancy(self, t_a, v_a, s_ref: float, s_in, s_out):
+        """(enter, leave) [s] at the points for arrivals (t_a, v_a) at s_ref; broadcast (K,1)x(P,)."""
+        fs, vmax = self.fs, self.model.v_max
+        enter = t_a + time_to_cover(s_in - s_ref, v_a, fs.comfort_accel, vmax)
+        leave = t_a + time_to_cover(s_out - s_ref, v_a, fs.comfort_accel, vmax)
+        return enter, leave
+
+    # ------------------------------------------------------------------ one step
+    def decide(self, world: World, deadline: float) -> Decisions:
+        fs, ms = self.fs, self.model
+        period = self.ctx.control_period
+        n, ids, t = len(world), world.ids, world.time
+        decisions = Decisions()
+        active = [k for k in range(n) if world.role[k] != "outside"]
+        decisions.release = sorted(self.controlled - {ids[k] for k in active})
+        self.controlled = {ids[k] for k in active}
+        present = set(ids)
+        self.grants = {v: g for v, g in self.grants.items() if v in present}
+        self.committed &= present
+        vmax = ms.v_max
+
+        # earliest arrival of every vehicle; commitment
+        s_stop = np.array([self.paths[p].s_stop for p in world.path_ids])
+        d = s_stop - world.s
+        past = (d <= 0) | np.array([r != "ready" for r in world.role], dtype=bool)
+        v = np.clip(world.v, 0.0, None)
+        t_e = np.where(past, t, t + time_to_cover(d, v, fs.comfort_accel, vmax))
+        v_e = np.where(past, v, np.minimum(vmax, np.sqrt(v * v + 2 * fs.comfort_accel * np.maximum(d, 0))))
+        cannot_stop = v * v / (2 * fs.max_brake) >= d - fs.follow_gap
+        # on one approach lane, never earlier than the vehicle ahead
+        by_lane: dict[str, list[int]] = {}
+        for k in range(n):
+            if not past[k]:
+                by_lane.setdefault(world.lanes[k] if world.lanes else world.path_ids[k], []).append(k)
+        for ks in by_lane.values():
+            ks.sort(key=lambda k: -world.s[k])
+            for a, b in zip(ks, ks[1:]):
+                t_e[b] = max(t_e[b], t_e[a] + 1e-3)
+
+        paths_present = set(world.path_ids)
+        busy_in: list[float] = []
+        busy_out: list[float] = []
+        busy_pt: list[int] = []
+        busy_vehicle: list[str] = []
+
+        def reserve(vid, keys, enter, leave):
+            for key, e, l_ in zip(keys, enter, leave):
+                busy_in.append(float(e))
+                busy_out.append(float(l_))
+                busy_pt.append(int(key))
+                busy_vehicle.append(vid)
+
+        # 1. committed vehicles keep their grants (widened by the prediction from now)
+        order = []
+        for k in range(n):
+            vid = ids[k]
+            grant = self.grants.get(vid)
+            if not (past[k] or vid in self.committed or (cannot_stop[k] and grant is not None)):
+                order.append(k)
+                continue
+            keys, s_in, s_out = self._points(world.path_ids[k], paths_present)
+            if grant is None:  # first seen already committed: its grant is its prediction
+                grant = Grant(float(t_e[k]), float(v_e[k]), True)
+                self.grants[vid] = grant
+            if past[k]:
+                enter, leave = self._occupancy(t, v[k], float(world.s[k]), s_in, s_out)
+            else:  # still approaching: it flies its granted arrival
+                enter, leave = self._occupancy(grant.t_arrive, grant.v_arrive, float(s_stop[k]), s_in, s_out)
+                _, late = self._occupancy(t_e[k], v_e[k], float(s_stop[k]), s_in, s_out)
+                leave = np.maximum(leave, late)
+            for m, key in enumerate(keys):
+                if int(key) in grant.slots:
+                    ge, gl = grant.slots[int(key)]
+                    enter[m], leave[m] = min(enter[m], ge), max(leave[m], gl)
+            if vid not in self.committed:
+                self.committed.add(vid)
+                self.history[vid] = {int(kk): (float(e), float(l_)) for kk, e, l_ in zip(keys, enter, leave)}
+                self.history[vid].update(grant.slots)
+            keep = world.s[k] <= s_out  # rear not yet past the point
+            grant.slots.update({int(kk): (float(e), float(l_)) for kk, e, l_ in
+                                zip(keys[keep], enter[keep], leave[keep])})
+            reserve(vid, keys[keep], enter[keep], leave[keep])
+
+        # 2. approaching vehicles, first come first served
+        order.sort(key=lambda k: (t_e[k], ids[k]))
+        n_cand = int(math.ceil(fs.max_delay / fs.slot_step)) + 1
+        for k in order:
+            vid = ids[k]
+            keys, s_in, s_out = self._points(world.path_ids[k], paths_present)
+            cand_t = t_e[k] + fs.slot_step * np.arange(n_cand)
+            dt = np.maximum(cand_t - t, 1e-6)
+            v_lin = 2.0 * max(d[k], 0.0) / dt - v[k]
+            cand_v = np.where(v_lin >= 0, np.minimum(v_lin, v_e[k]), 0.0)
+            cand_v[0] = v_e[k]
+            enter, leave = self._occupancy(cand_t[:, None], cand_v[:, None], float(s_stop[k]), s_in, s_out)
+            j = free_slot(enter, leave, np.asarray(busy_in), np.asarray(busy_out), keys,
+                          np.asarray(busy_pt, np.int64), fs.buffer)
+            if j < 0:
+                j = n_cand - 1
+            grant = Grant(float(cand_t[j]), float(cand_v[j]), j == 0,
+                          {int(kk): (float(e), float(l_)) for kk, e, l_ in zip(keys, enter[j], leave[j])})
+            self.grants[vid] = grant
+            reserve(vid, keys, enter[j], leave[j])
+
+        # 3. commands
+        accel = np.zeros(n)
+        for k in active:
+            vid = ids[k]
+            grant = self.grants[vid]
+            if past[k] or grant.earliest or grant.t_arrive <= t + 1e-9:
+                a = fs.comfort_accel
+            elif grant.v_arrive > 0:
+                dt = grant.t_arrive - t
+                a = 2.0 * (d[k] - v[k] * dt) / (dt * dt)
+            else:
+                a = stopping_acceleration(float(world.s[k]), float(v[k]), float(s_stop[k]) - fs.follow_gap)
+                a = -v[k] / period if a is None else a
+            a = min(a, (vmax - v[k]) / period)
+            accel[k] = min(max(a, -fs.max_brake), fs.comfort_accel)
+        self._leader_caps(world, active, accel)
+        for k in active:
+            vid = ids[k]
+            decisions.accel[vid] = float(max(accel[k], -v[k] / period))
+            if len(world.exit_choices.get(vid, ())) > 1:
+                decisions.exit_lane[vid] = self.paths[world.path_ids[k]].exit_lane
+        return decisions
+
+    def _leader_caps(self, world: World, active: list[int], accel: np.ndarray) -> None:
+        """Cap each active vehicle's acceleration by Krauss' safe speed behind its leader."""
+        fs, ms = self.fs, self.model
+        period = self.ctx.control_period
+        idx = self.table.indices(world.path_ids)
+        length = ms.vehicle_length
+        for i in active:
+            p = idx[i]
+            kinds = self.table.kind[p, idx]
+            s_cp_i = self.table.s_a[p, idx]
+            s_cp_j = self.table.s_b[p, idx]
+            # following: shared stretch from s = 0 on both paths; leader ahead, rear not past its end
+            foll = (kinds == KIND_FOLLOWING) & (world.s > world.s[i]) & (world.s[i] < s_cp_i) \
+                & (world.s - length < s_cp_j)
+            gap_f = world.s - world.s[i]
+            # confluence: leader past the merge point and ahead of i relative to it
+            rel_i = world.s[i] - s_cp_i
+            rel_j = world.s - s_cp_j
+            conf = (kinds == KIND_CONFLUENCE) & (rel_j >= 0) & (rel_j > rel_i)
+            gap_c = rel_j - rel_i
+            gap = np.where(foll, gap_f, np.where(conf, gap_c, np.inf))
+            gap[i] = np.inf
+            j = int(np.argmin(gap))
+            if not np.isfinite(gap[j]):
+                continue
+            v_safe = krauss_safe_speed(float(gap[j]) - length - fs.follow_gap, float(world.v[j]),
+                                       fs.max_brake, period)
+            accel[i] = min(accel[i], (v_safe - float(world.v[i])) / period)
+
+    def fallback(self, world: World) -> Decisions:
+        """Comfortable braking for approaching vehicles that can still stop; the rest keep going."""
+        decisions = Decisions(fallback=True)
+        period = self.ctx.control_period
+        for k in range(len(world)):
+            if world.role[k] == "outside":
+                continue
+            vid = world.ids[k]
+            if vid in self.committed:
+                a = self.fs.comfort_accel
+            else:
+                a = -self.fs.comfort_accel
+            decisions.accel[vid] = max(a, -float(world.v[k]) / period)
+            self.controlled.add(vid)
+        return decisions
