@@ -142,7 +142,6 @@ class GameController:
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
-        ms = self.model
         n = len(world)
         ids = world.ids
         active = [k for k in range(n) if world.role[k] != "outside"]
@@ -152,6 +151,7 @@ class GameController:
         self.controlled = {ids[k] for k in active}
         for vid in decisions.release:
             self.plans.pop(vid, None)
+            self.options.pop(vid, None)
         if not active:
             return decisions
 

@@ -194,7 +194,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
                    "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
                    "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),
-                   "fallbacks": int(steps["fallback"].sum())},
+                   "fallbacks": int(steps["fallback"].sum()),
+                   "safety_interventions": getattr(controller, "filtered", None)},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,
