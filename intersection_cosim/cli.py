@@ -73,6 +73,19 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://host:8786")
     sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
 
+    compare = sub.add_parser("compare", help="compare controllers over seeds on one or more demand scenarios")
+    compare.add_argument("scenario", nargs="+", help="scenario file(s) (TOML), e.g. one per demand level")
+    compare.add_argument("--controllers", default="nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls",
+                         help="controller kinds, comma-separated (default: %(default)s)")
+    compare.add_argument("--seeds", default="1-5", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: 1-5)")
+    compare.add_argument("--duration", type=_positive_float, help="[s] override every scenario's demand window")
+    compare.add_argument("--out", required=True, help="comparison folder; rerunning the same command skips "
+                         "finished runs")
+    where = compare.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_positive_int, help="parallel local runs (default: the number of CPUs)")
+    where.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://host:8786")
+    compare.add_argument("--no-progress", action="store_true", help="no progress bar")
+
     report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
     return parser
@@ -117,6 +130,21 @@ def _cmd_sweep(args) -> int:
     return 1 if outcome.failed else 0
 
 
+def _cmd_compare(args) -> int:
+    from intersection_cosim.experiments.compare import make_specs, run_compare
+    from intersection_cosim.experiments.sweep import SweepInterrupted
+
+    specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration)
+    try:
+        outcome = run_compare(specs, args.out, workers=args.workers, dask_scheduler=args.dask_scheduler,
+                              progress=not args.no_progress)
+    except SweepInterrupted as exc:
+        print(f"intersection-cosim: interrupted: {exc}", file=sys.stderr)
+        return 130
+    print("\n".join(outcome.lines()))
+    return 1 if outcome.failed else 0
+
+
 def _cmd_report(args) -> int:
     from intersection_cosim.report.reporting import write_report
 
@@ -124,7 +152,8 @@ def _cmd_report(args) -> int:
     return 0
 
 
-COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "report": _cmd_report}
+COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare,
+            "report": _cmd_report}
 
 
 def main(argv: list[str] | None = None) -> int:

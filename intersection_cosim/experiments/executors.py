@@ -57,6 +57,8 @@ class Job:
     kappa: tuple[tuple[str, float], ...]  # (vehicle id, kappa) overrides
     run_dir: str  # absolute path of the run folder (finished <=> it holds summary.json)
     failed_file: str  # absolute path of the failure record
+    # ([scenario] field, value) overrides, e.g. (("duration", 60.0),); see SCENARIO_OVERRIDES
+    overrides: tuple[tuple[str, float], ...] = ()
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self))
@@ -65,6 +67,7 @@ class Job:
     def from_json(cls, text: str) -> "Job":
         d = json.loads(text)
         d["kappa"] = tuple((str(v), float(k)) for v, k in d["kappa"])
+        d["overrides"] = tuple((str(f), float(x)) for f, x in d.get("overrides", ()))
         return cls(**d)
 
     @property
@@ -74,14 +77,20 @@ class Job:
         return (Path(self.run_dir) / RUN_MARKER).is_file()
 
 
+# [scenario] fields a sweep may override for all its runs (e.g. ``compare --duration``).
+SCENARIO_OVERRIDES = ("duration",)
+
+
 def job_scenario(job: Job):
-    """The job's scenario: the file with the controller, seed and kappa overrides applied."""
+    """The job's scenario: the file with the controller, seed, kappa and [scenario] overrides applied."""
     import tomllib
 
     from intersection_cosim.scenario import scenario_from_dict, with_overrides
 
     scn = scenario_from_dict(tomllib.loads(job.scenario_text), job.scenario)
     scn = with_overrides(scn, controller=job.controller, seed=job.seed)
+    if job.overrides:
+        scn = dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, **dict(job.overrides)))
     kappa = dict(job.kappa)
     vehicles = tuple(dataclasses.replace(v, kappa=kappa[v.id]) if v.id in kappa else v for v in scn.vehicles)
     return dataclasses.replace(scn, vehicles=vehicles)

@@ -172,6 +172,7 @@ class SweepSpec:
     controllers: tuple[str, ...]
     seeds: tuple[int, ...]
     scenario_text: str = dataclasses.field(default="", compare=False, repr=False)  # what the runs run
+    overrides: tuple[tuple[str, float], ...] = ()  # [scenario] field overrides of every run (executors.py)
 
     @property
     def axes(self) -> list[str]:
@@ -199,30 +200,38 @@ class SweepSpec:
         out = Path(out).resolve()
         return [Job(run_id=(rid := self.run_id(c, s, k)), scenario=self.scenario, scenario_text=scenario_text,
                     controller=c, seed=s, kappa=k, run_dir=str(out / RUNS_DIR / rid),
-                    failed_file=str(out / FAILED_DIR / f"{rid}.json"))
+                    failed_file=str(out / FAILED_DIR / f"{rid}.json"), overrides=self.overrides)
                 for c, s, k in self.grid()]
 
     def identity(self) -> tuple:
         """What must match for a rerun to continue a sweep (the file may have moved)."""
-        return (self.scenario_sha256, self.vehicles, self.kappa, self.controllers, self.seeds)
+        return (self.scenario_sha256, self.vehicles, self.kappa, self.controllers, self.seeds, self.overrides)
 
     def to_dict(self) -> dict:
         return {"scenario": self.scenario, "scenario_sha256": self.scenario_sha256,
                 "scenario_name": self.scenario_name, "vehicles": list(self.vehicles),
                 "kappa": {vid: list(values) for vid, values in self.kappa},
-                "controllers": list(self.controllers), "seeds": list(self.seeds), "runs": self.total}
+                "controllers": list(self.controllers), "seeds": list(self.seeds), "runs": self.total,
+                **({"overrides": dict(self.overrides)} if self.overrides else {})}
 
     @classmethod
     def from_dict(cls, d: dict) -> "SweepSpec":
         return cls(scenario=d["scenario"], scenario_sha256=d["scenario_sha256"], scenario_name=d["scenario_name"],
                    vehicles=tuple(d["vehicles"]),
                    kappa=tuple((vid, tuple(float(x) for x in vals)) for vid, vals in d["kappa"].items()),
-                   controllers=tuple(d["controllers"]), seeds=tuple(int(s) for s in d["seeds"]))
+                   controllers=tuple(d["controllers"]), seeds=tuple(int(s) for s in d["seeds"]),
+                   overrides=tuple((str(f), float(x)) for f, x in d.get("overrides", {}).items()))
 
 
 def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers: str | None = None,
-              seeds: str | None = None) -> SweepSpec:
-    """Validate the command line's sweep spec against the scenario; raise InputError before any run."""
+              seeds: str | None = None, overrides: dict[str, float] | None = None) -> SweepSpec:
+    """Validate the command line's sweep spec against the scenario; raise InputError before any run.
+
+    ``overrides``: [scenario] fields set for every run (``executors.SCENARIO_OVERRIDES``), e.g.
+    ``{"duration": 60.0}``; part of the sweep's identity.
+    """
+    from intersection_cosim.experiments.executors import SCENARIO_OVERRIDES
+
     from intersection_cosim.scenario import load_scenario
 
     path = Path(scenario)
@@ -235,9 +244,16 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
         raise InputError("--kappa", "kappa", ", ".join(grid), "vehicle ids collide in run folder names")
     kinds = parse_controllers(controllers) if controllers else (scn.controller.kind,)
     seed_list = parse_seeds(seeds) if seeds else (scn.scenario.seed,)
+    fixed = []
+    for name, value in (overrides or {}).items():
+        if name not in SCENARIO_OVERRIDES:
+            raise InputError(f"--{name}", name, value, f"cannot be overridden (only {', '.join(SCENARIO_OVERRIDES)})")
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise InputError(f"--{name}", name, value, "must be a number > 0")
+        fixed.append((name, float(value)))
     return SweepSpec(scenario=str(path.resolve()), scenario_sha256=hashlib.sha256(text.encode()).hexdigest(),
                      scenario_name=scn.scenario.name, vehicles=tuple(vids), kappa=tuple(grid.items()),
-                     controllers=kinds, seeds=seed_list, scenario_text=text)
+                     controllers=kinds, seeds=seed_list, scenario_text=text, overrides=tuple(fixed))
 
 
 def load_spec(out: str | Path) -> SweepSpec:
@@ -255,7 +271,7 @@ def check_out(spec: SweepSpec, out: Path) -> None:
             raise InputError("--out", "out", str(out), f"has an unreadable {SPEC_FILE} ({exc})") from None
         if old.identity() != spec.identity():
             what = [name for name, a, b in zip(("scenario file content", "vehicles", "kappa grid", "controllers",
-                                                "seeds"), old.identity(), spec.identity(), strict=True) if a != b]
+                                                "seeds", "overrides"), old.identity(), spec.identity(), strict=True) if a != b]
             raise InputError("--out", "out", str(out), f"holds another sweep (its {', '.join(what)} differ); "
                              "rerun the same command to continue it, or use another --out")
     elif out.is_dir() and any(p.name != LOCK_FILE for p in out.iterdir()):

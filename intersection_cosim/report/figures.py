@@ -281,3 +281,35 @@ def kappa_lines(table: pd.DataFrame, metric: str, axis: str, out_png: Path, titl
     ax.legend(title="controller", fontsize=8)
     ax.set_title(title or f"{metric_label(metric)} against {axis}")
     return _save(fig, out_png)
+
+
+def metric_vs_demand(table: pd.DataFrame, metric: str, label: str, out_png: Path) -> Path:
+    """A comparison metric against demand [veh/h], one line per controller (``compare``).
+
+    ``table``: comparison.csv's rows (columns demand_veh_h, controller, ``metric``). With a single
+    demand level, one bar per controller instead.
+    """
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    controllers = list(dict.fromkeys(table["controller"]))
+    cmap = plt.get_cmap("tab10")
+    demands = sorted(table["demand_veh_h"].unique())
+    if len(demands) <= 1:
+        values = [float(table.loc[table["controller"] == c, metric].iloc[0]) for c in controllers]
+        ax.bar(range(len(controllers)), np.nan_to_num(values, nan=0.0),
+               color=[cmap(i % cmap.N) for i in range(len(controllers))])
+        ax.set_xticks(range(len(controllers)), controllers, rotation=20, ha="right")
+        for i, v in enumerate(values):
+            if not np.isfinite(v):
+                ax.text(i, 0, "n/a", ha="center", va="bottom", fontsize=8)
+        title = f"{label} at {demands[0]:.0f} veh/h" if demands else label
+        ax.set_title(title, fontsize=10)
+    else:
+        for i, c in enumerate(controllers):
+            rows = table[table["controller"] == c].sort_values("demand_veh_h")
+            ax.plot(rows["demand_veh_h"], rows[metric].astype(float), marker="o", color=cmap(i % cmap.N), label=c)
+        ax.set_xlabel("demand [veh/h]")
+        ax.legend(fontsize=8)
+    ax.set_ylabel(label)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, out_png)

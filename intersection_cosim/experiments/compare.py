@@ -1,0 +1,229 @@
+"""Controller comparison (issue 7): every controller x seed on one or more demand scenarios.
+
+``intersection-cosim compare SCENARIO... --controllers K1,K2 --seeds 1-5 --out DIR`` runs one sweep
+per scenario (no kappa grid) into ``DIR/<scenario name>/`` through :func:`run_sweep` (so it is
+resumable and runs on Dask too), then writes::
+
+    DIR/comparison.csv                 one row per scenario x controller, aggregated over the seeds
+    DIR/report.md                      the table
+    DIR/figures/<metric>_vs_demand.png one line per controller against demand [veh/h]
+                                       (bars per controller when there is one scenario)
+
+Aggregation over the seeds of a (scenario, controller): travel time mean and 95th percentile and
+time loss mean over all arrived vehicles of all seeds; throughput = arrived vehicles per hour of
+the demand window (``[scenario] duration``, summed over the seeds); SSM min TTC / min PET over all
+encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``);
+collisions summed; compute time per control step median and 95th percentile over all steps, and
+the share of steps that missed their deadline.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.files import SSM_THRESHOLDS
+from intersection_cosim.experiments.sweep import SweepOutcome, SweepSpec, check_out, make_spec, parse_controllers, \
+    run_sweep
+
+TABLE_FILE = "comparison.csv"
+REPORT_FILE = "report.md"
+FIGURES_DIR = "figures"
+DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls"
+
+COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
+           "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
+           "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
+           "compute_ms_median", "compute_ms_p95", "control_steps", "deadline_misses", "deadline_miss_share"]
+# Metrics that get a figure against demand, with axis labels.
+FIGURE_METRICS = {
+    "travel_time_mean": "travel time, mean [s]",
+    "travel_time_p95": "travel time, 95th percentile [s]",
+    "time_loss_mean": "time loss, mean [s]",
+    "throughput_veh_h": "throughput [veh/h]",
+    "ssm_min_ttc": "min TTC, SUMO SSM [s]",
+    "ssm_min_pet": "min PET, SUMO SSM [s]",
+    "ssm_share_under_thresholds": "share of SSM encounters under thresholds [-]",
+    "collisions": "collisions [-]",
+    "compute_ms_median": "compute time per step, median [ms]",
+    "compute_ms_p95": "compute time per step, 95th percentile [ms]",
+    "deadline_miss_share": "share of steps missing the deadline [-]",
+}
+
+
+@dataclasses.dataclass
+class CompareOutcome:
+    out: Path
+    outcomes: list[SweepOutcome]
+    table: pd.DataFrame
+
+    @property
+    def failed(self) -> int:
+        return sum(o.failed for o in self.outcomes)
+
+    def lines(self) -> list[str]:
+        return [o.line() for o in self.outcomes] + [f"{self.out / TABLE_FILE}; {self.out / REPORT_FILE}"]
+
+
+def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLERS, seeds: str = "1-5",
+               duration: float | None = None) -> list[SweepSpec]:
+    """One sweep spec per scenario; every input checked (InputError) before any run starts."""
+    if not scenarios:
+        raise InputError("compare", "scenario", "", "give at least one scenario file")
+    try:
+        parse_controllers(controllers)
+    except InputError as exc:
+        raise InputError("--controllers", "controllers", controllers, exc.problem) from None
+    overrides = {"duration": duration} if duration is not None else None
+    specs = [make_spec(s, None, controllers, seeds, overrides) for s in scenarios]
+    names = [s.scenario_name for s in specs]
+    for name in names:
+        if names.count(name) > 1:
+            raise InputError("compare", "scenario", name, "two scenario files have the same [scenario] name")
+    return specs
+
+
+def demand_veh_h(spec: SweepSpec) -> float:
+    """Total demand [veh/h] of the scenario's flows over its (possibly overridden) demand window,
+    plus its hand-placed vehicles spread over that window."""
+    import tomllib
+
+    from intersection_cosim.scenario import scenario_from_dict
+
+    scn = scenario_from_dict(tomllib.loads(spec.scenario_text), spec.scenario)
+    duration = dict(spec.overrides).get("duration", scn.scenario.duration)
+    vehicles = sum(f.rate / 3600.0 * max(0.0, min(f.end, duration) - max(f.begin, 0.0)) for f in scn.flows)
+    vehicles += len(scn.vehicles)
+    return vehicles / duration * 3600.0
+
+
+def _quantile(values: np.ndarray, q: float) -> float:
+    values = values[np.isfinite(values)]
+    return float(np.quantile(values, q)) if len(values) else math.nan
+
+
+def _mean(values: np.ndarray) -> float:
+    values = values[np.isfinite(values)]
+    return float(values.mean()) if len(values) else math.nan
+
+
+def _min(values: np.ndarray) -> float:
+    values = values[np.isfinite(values)]
+    return float(values.min()) if len(values) else math.nan
+
+
+def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
+    """The comparison rows of one scenario's sweep folder (one per controller, over its seeds)."""
+    from intersection_cosim.report.sumo_outputs import read_ssm
+
+    ttc_thr, _, pet_thr = SSM_THRESHOLDS
+    rows = []
+    jobs = spec.jobs(out)
+    for controller in spec.controllers:
+        mine = [j for j in jobs if j.controller == controller and j.finished]
+        veh, steps, ssm = [], [], []
+        window = 0.0
+        vehicles = arrived = collisions = 0
+        for job in mine:
+            run = Path(job.run_dir)
+            summary = json.loads((run / "summary.json").read_text())
+            counts = summary.get("counts", {})
+            duration = dict(spec.overrides).get("duration") or summary["settings"]["scenario"]["duration"]
+            window += float(duration)
+            vehicles += int(counts.get("vehicles") or 0)
+            arrived += int(counts.get("arrived") or 0)
+            collisions += int(counts.get("collisions") or 0)
+            veh.append(pd.read_csv(run / "vehicles.csv", dtype={"vehicle": str}))
+            steps.append(pd.read_csv(run / "steps.csv"))
+            ssm.append(read_ssm(run / "ssm.xml"))
+        v = pd.concat(veh) if veh else pd.DataFrame(columns=["arrival", "travel_time", "time_loss"])
+        v = v[v["arrival"].notna()] if len(v) else v
+        st = pd.concat(steps) if steps else pd.DataFrame(columns=["compute_ms", "deadline_missed"])
+        ss = pd.concat(ssm) if ssm else pd.DataFrame(columns=["min_ttc", "pet"])
+        tt = v["travel_time"].to_numpy(float)
+        ttc = ss["min_ttc"].to_numpy(float)
+        pet = ss["pet"].to_numpy(float)
+        under = (np.nan_to_num(ttc, nan=np.inf) < ttc_thr) | (np.nan_to_num(pet, nan=np.inf) < pet_thr)
+        cms = st["compute_ms"].to_numpy(float)
+        misses = int(st["deadline_missed"].astype(bool).sum()) if len(st) else 0
+        rows.append({
+            "scenario": spec.scenario_name, "demand_veh_h": demand, "controller": controller,
+            "seeds": len(spec.seeds), "runs_ok": len(mine), "vehicles": vehicles, "arrived": arrived,
+            "travel_time_mean": _mean(tt), "travel_time_p95": _quantile(tt, 0.95),
+            "time_loss_mean": _mean(v["time_loss"].to_numpy(float)),
+            "throughput_veh_h": arrived / window * 3600.0 if window > 0 else math.nan,
+            "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss),
+            "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
+            "collisions": collisions if mine else math.nan,
+            "compute_ms_median": _quantile(cms, 0.5), "compute_ms_p95": _quantile(cms, 0.95),
+            "control_steps": len(st), "deadline_misses": misses,
+            "deadline_miss_share": misses / len(st) if len(st) else math.nan,
+        })
+    return rows
+
+
+def markdown_table(table: pd.DataFrame, columns: list[str] | None = None) -> str:
+    """A GitHub markdown table (no tabulate needed); floats to 3 significant decimals."""
+    columns = columns or list(table.columns)
+
+    def cell(x) -> str:
+        if isinstance(x, float):
+            return "" if math.isnan(x) else f"{x:.3g}" if abs(x) < 1000 else f"{x:.0f}"
+        return str(x)
+
+    lines = ["| " + " | ".join(columns) + " |", "|" + "|".join("---" for _ in columns) + "|"]
+    for _, row in table.iterrows():
+        lines.append("| " + " | ".join(cell(row[c]) for c in columns) + " |")
+    return "\n".join(lines)
+
+
+def write_report(out: Path, table: pd.DataFrame, figures: list[Path]) -> Path:
+    ttc_thr, _, pet_thr = SSM_THRESHOLDS
+    text = ["# Controller comparison", "",
+            f"One row per scenario and controller, aggregated over the seeds ({TABLE_FILE}). Travel time and time "
+            "loss over the arrived vehicles of all seeds; throughput = arrived vehicles per hour of the demand "
+            f"window; SSM share = encounters with TTC < {ttc_thr:g} s or PET < {pet_thr:g} s; compute time per "
+            "control step.", "", markdown_table(table), "", "## Figures", ""]
+    text += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figures]
+    path = out / REPORT_FILE
+    path.write_text("\n".join(text) + "\n")
+    return path
+
+
+def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
+    """comparison.csv, report.md and the figures from the sweep folders under ``out``."""
+    from intersection_cosim.report.figures import metric_vs_demand
+
+    rows = []
+    for spec in specs:
+        rows += aggregate(spec, out / spec.scenario_name, demand_veh_h(spec))
+    table = pd.DataFrame(rows, columns=COLUMNS).sort_values(["demand_veh_h", "scenario"], kind="stable")
+    table = table.reset_index(drop=True)
+    table.to_csv(out / TABLE_FILE, index=False, float_format="%.6g")
+    figures = [metric_vs_demand(table, metric, label, out / FIGURES_DIR / f"{metric}_vs_demand.png")
+               for metric, label in FIGURE_METRICS.items()]
+    write_report(out, table, figures)
+    return table
+
+
+def run_compare(specs: list[SweepSpec], out: str | Path, *, workers: int | None = None,
+                dask_scheduler: str | None = None, progress: bool = True) -> CompareOutcome:
+    """Run (or continue) every scenario's sweep into ``out/<scenario name>/``; write the comparison.
+
+    A :class:`~intersection_cosim.experiments.sweep.SweepInterrupted` propagates (finished runs kept).
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", "out", str(out), "is a file, not a folder")
+    for spec in specs:  # every scenario's folder must be new or the same sweep, before any run
+        check_out(spec, out / spec.scenario_name)
+    outcomes = [run_sweep(spec, out / spec.scenario_name, workers=workers, dask_scheduler=dask_scheduler,
+                          progress=progress) for spec in specs]
+    table = write_outputs(out, specs)
+    return CompareOutcome(out=out, outcomes=outcomes, table=table)

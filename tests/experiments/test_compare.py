@@ -1,0 +1,79 @@
+"""`intersection-cosim compare`: controllers x seeds on demand scenarios, the comparison table and figures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from intersection_cosim.cli import main
+from intersection_cosim.experiments.compare import COLUMNS, FIGURE_METRICS, make_specs, markdown_table
+
+ROOT = Path(__file__).resolve().parents[2]
+LOW = str(ROOT / "scenarios" / "demand_balanced_low.toml")
+
+
+def test_unknown_controller_is_one_line_before_any_run(tmp_path, capsys):
+    out = tmp_path / "cmp"
+    assert main(["compare", LOW, "--controllers", "fcfs,nope", "--seeds", "1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--controllers" in err and "'nope'" in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv", [["--seeds", "3-1"], ["--duration", "0"], ["--duration", "x"]])
+def test_bad_seeds_or_duration_exit_2(tmp_path, capsys, argv):
+    out = tmp_path / "cmp"
+    with pytest.raises(SystemExit) as exc_info:
+        code = main(["compare", LOW, "--controllers", "fcfs", "--out", str(out), *argv])
+        raise SystemExit(code)
+    assert exc_info.value.code == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_duration_override_is_part_of_the_spec():
+    a, = make_specs([LOW], "fcfs", "1", 60.0)
+    b, = make_specs([LOW], "fcfs", "1", None)
+    assert a.overrides == (("duration", 60.0),) and b.overrides == ()
+    assert a.identity() != b.identity()
+    assert all(j.overrides == (("duration", 60.0),) for j in a.jobs(Path("/tmp/x"), a.scenario_text))
+
+
+def test_markdown_table():
+    text = markdown_table(pd.DataFrame({"a": ["x"], "b": [1.23456], "c": [float("nan")]}))
+    assert text.splitlines() == ["| a | b | c |", "|---|---|---|", "| x | 1.23 |  |"]
+
+
+@pytest.mark.slow
+def test_compare_low_demand_and_rerun(tmp_path, capsys):
+    out = tmp_path / "cmp"
+    argv = ["compare", LOW, "--duration", "60", "--controllers", "fcfs,sumo-priority", "--seeds", "1",
+            "--out", str(out), "--workers", "2", "--no-progress"]
+    assert main(argv) == 0
+    table = pd.read_csv(out / "comparison.csv")
+    assert list(table.columns) == COLUMNS
+    assert list(table["controller"]) == ["fcfs", "sumo-priority"]
+    assert (table["runs_ok"] == 1).all()
+    assert (table["throughput_veh_h"] > 0).all()
+    assert (table["collisions"] == 0).all()
+    assert table["demand_veh_h"].tolist() == pytest.approx([600.0, 600.0])
+    assert table["travel_time_mean"].notna().all() and table["compute_ms_median"].notna().all()
+    for metric in FIGURE_METRICS:
+        assert (out / "figures" / f"{metric}_vs_demand.png").stat().st_size > 0
+    report = (out / "report.md").read_text()
+    assert "| demand_balanced_low | 600 | fcfs |" in report
+    summary = out / "demand_balanced_low" / "runs" / "fcfs-seed1" / "summary.json"
+    mtime = summary.stat().st_mtime_ns
+    capsys.readouterr()
+
+    assert main(argv) == 0  # rerun: both runs skipped, table rebuilt
+    assert "(2 already before)" in capsys.readouterr().out
+    assert summary.stat().st_mtime_ns == mtime
+    pd.testing.assert_frame_equal(pd.read_csv(out / "comparison.csv"), table)
+
+    # another duration into the same folder is refused, one line, exit 2
+    assert main([*argv[:3], "30", *argv[4:]]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "overrides" in err
