@@ -1,0 +1,195 @@
+"""Scaling benchmark of the game controller (issue 7 item 4).
+
+The controller's wall time per control step (``compute_ms`` of steps.csv) against the number of
+vehicles in the control zone (role ``ready`` / ``passing`` in trajectories.csv: on an approach lane
+or in the junction), for the Nash controller with and without the event-triggered mechanism (ETM),
+next to SUMO's own step time in the same runs (``SumoSimulation.advance`` wrapped with a
+perf_counter timer: one SUMO step plus the subscription read).
+
+Scenarios are built in code: Poisson flows on all four approaches and all three movements at
+increasing total rates, so that the zone holds about 10, 20, 40 and 80 vehicles. Only control steps
+after ``--warmup`` seconds are measured. Steps are binned by vehicle count around the targets
+([0.8, 1.2] x target); per bin the median compute_ms is reported and the growth exponent is the
+least-squares slope of log(median compute_ms) on log(median n) (numpy.polyfit). With the trigger
+the growth should stay near linear in the number of vehicles (exponent ~1), not quadratic in the
+number of pairs (exponent ~2, the no-ETM behaviour).
+
+A table goes to stderr; the last line of stdout is one JSON object.
+
+    python scripts/bench_scale.py [--duration 90] [--warmup 30] [--max-noetm-s 180]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.scenario import scenario_from_dict
+from intersection_cosim.sim import sumo as sumo_mod
+
+TARGETS = (10, 20, 40, 80)
+# total demand [veh/h] over the 12 flows (4 approaches x 3 movements) aimed at each target
+TOTAL_RATES = {10: 2400.0, 20: 4200.0, 40: 6500.0, 80: 9000.0}  # congestion: n grows fast past ~6000
+APPROACHES = ("north", "south", "east", "west")
+MOVEMENTS = ("left", "straight", "right")
+
+_sumo_ms: list[float] = []
+
+
+def build_scenario(total_rate: float, duration: float, seed: int, etm: bool):
+    per_flow = total_rate / (len(APPROACHES) * len(MOVEMENTS))
+    data = {
+        "scenario": {"name": f"scale_{int(total_rate)}", "duration": duration, "drain": 0.0,
+                     "step_length": 0.05, "seed": seed},
+        "controller": {"kind": "nash", "period": 0.1, "budget_ms": 10000.0, "etm": True,
+                       "realtime": False},
+        "flow": [
+            {"approach": a, "movement": m, "rate": per_flow,
+             "kappa": {"dist": "uniform", "low": 0.2, "high": 0.8}, "begin": 0.0, "end": duration}
+            for a in APPROACHES for m in MOVEMENTS
+        ],
+    }
+    scn = scenario_from_dict(data, "bench")
+    if not etm:
+        scn = dataclasses.replace(scn, controller=dataclasses.replace(scn.controller, etm=False))
+    return scn
+
+
+def run_one(scn, warmup: float) -> dict:
+    _sumo_ms.clear()
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="bench_scale_") as tmp:
+        out = Path(tmp) / "run"
+        run_scenario(scn, out)
+        steps = pd.read_csv(out / "steps.csv")
+        traj = pd.read_csv(out / "trajectories.csv", usecols=["time", "role"])
+    wall = time.perf_counter() - t0
+    inzone = traj[traj["role"] != "outside"].groupby(traj["time"].round(3)).size()
+    steps["n"] = steps["time"].round(3).map(inzone).fillna(0).astype(int)
+    steps = steps[steps["time"] >= warmup]
+    return {"steps": steps[["time", "n", "compute_ms", "games"]].copy(),
+            "sumo_ms": list(_sumo_ms), "wall_s": wall}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--duration", type=float, default=50.0, help="[s] simulated time per run")
+    ap.add_argument("--warmup", type=float, default=30.0, help="[s] control steps before are dropped")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--max-noetm-s", type=float, default=180.0,
+                    help="[s] skip a no-ETM run whose predicted wall time exceeds this")
+    args = ap.parse_args()
+
+    original = sumo_mod.SumoSimulation.advance
+
+    def timed_advance(self) -> None:
+        t0 = time.perf_counter()
+        original(self)
+        _sumo_ms.append((time.perf_counter() - t0) * 1e3)
+
+    sumo_mod.SumoSimulation.advance = timed_advance
+    notes: list[str] = []
+    all_steps = {True: [], False: []}
+    sumo_all = {True: [], False: []}
+    runs = []
+    t_start = time.perf_counter()
+    try:
+        prev_noetm = None
+        for target in TARGETS:
+            for etm in (True, False):
+                if not etm and prev_noetm is not None:
+                    # predicted wall time: quadratic growth in n from the previous no-ETM run
+                    predicted = prev_noetm[1] * (target / prev_noetm[0]) ** 2
+                    if predicted > args.max_noetm_s:
+                        notes.append(f"no-ETM run for target {target} skipped (predicted "
+                                     f"{predicted:.0f} s wall > {args.max_noetm_s:.0f} s)")
+                        continue
+                scn = build_scenario(TOTAL_RATES[target], args.duration, args.seed, etm)
+                r = run_one(scn, args.warmup)
+                st = r["steps"]
+                print(f"  target {target:3d} etm={etm!s:5}: wall {r['wall_s']:6.1f} s, n median "
+                      f"{st['n'].median():.0f} [{st['n'].min()}-{st['n'].max()}], compute median "
+                      f"{st['compute_ms'].median():.2f} ms", file=sys.stderr, flush=True)
+                runs.append({"target": target, "etm": etm, "total_rate_veh_h": TOTAL_RATES[target],
+                             "wall_s": round(r["wall_s"], 1), "n_median": float(st["n"].median()),
+                             "n_max": int(st["n"].max()),
+                             "compute_ms_median": round(float(st["compute_ms"].median()), 3),
+                             "sumo_ms_median": round(float(np.median(r["sumo_ms"])), 4)})
+                all_steps[etm].append(st)
+                sumo_all[etm].extend(r["sumo_ms"])
+                if not etm:
+                    prev_noetm = (target, r["wall_s"])
+    finally:
+        sumo_mod.SumoSimulation.advance = original
+
+    bins = {}
+    exponents = {}
+    for etm in (True, False):
+        steps = pd.concat(all_steps[etm]) if all_steps[etm] else pd.DataFrame(
+            columns=["time", "n", "compute_ms", "games"])
+        rows = []
+        for target in TARGETS:
+            sel = steps[(steps["n"] >= 0.8 * target) & (steps["n"] <= 1.2 * target)]
+            if len(sel) == 0:
+                rows.append({"target": target, "steps": 0})
+                continue
+            rows.append({"target": target, "lo": int(np.floor(0.8 * target)),
+                         "hi": int(np.ceil(1.2 * target)), "steps": int(len(sel)),
+                         "n_median": float(sel["n"].median()),
+                         "compute_ms_median": round(float(sel["compute_ms"].median()), 3),
+                         "compute_ms_p95": round(float(sel["compute_ms"].quantile(0.95)), 3),
+                         "games_median": float(sel["games"].median())})
+        key = "etm" if etm else "noetm"
+        bins[key] = rows
+        pts = [(r["n_median"], r["compute_ms_median"]) for r in rows
+               if r["steps"] >= 5 and r["compute_ms_median"] > 0]
+        if len(pts) >= 2:
+            x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+            exponents[key] = round(float(np.polyfit(x, y, 1)[0]), 3)
+        else:
+            exponents[key] = None
+            notes.append(f"{key}: fewer than 2 populated bins, no exponent")
+        missing = [r["target"] for r in rows if r["steps"] < 5]
+        if missing:
+            notes.append(f"{key}: bins for targets {missing} have < 5 steps (not reached/skipped)")
+
+    sumo_med = {k: (round(float(np.median(v)), 4) if v else None) for k, v in
+                (("etm", sumo_all[True]), ("noetm", sumo_all[False]))}
+
+    print("\n  target | ETM: steps  n_med  ms_med  ms_p95 | no-ETM: steps  n_med  ms_med  ms_p95",
+          file=sys.stderr)
+    for a, b in zip(bins["etm"], bins["noetm"]):
+        def cell(r):
+            if r["steps"] == 0:
+                return f"{0:11d}      -       -       -"
+            return (f"{r['steps']:11d} {r['n_median']:6.0f} {r['compute_ms_median']:7.2f} "
+                    f"{r['compute_ms_p95']:7.2f}")
+        print(f"  {a['target']:6d} | {cell(a)} | {cell(b)}", file=sys.stderr)
+    print(f"  SUMO step (advance) median: ETM runs {sumo_med['etm']} ms, no-ETM runs "
+          f"{sumo_med['noetm']} ms", file=sys.stderr)
+    print(f"  growth exponent (compute_ms ~ n^k): ETM k={exponents['etm']}, "
+          f"no-ETM k={exponents['noetm']}", file=sys.stderr)
+
+    result = {
+        "benchmark": "bench_scale", "controller": "nash", "budget_ms": 10000.0,
+        "duration_s": args.duration, "warmup_s": args.warmup, "seed": args.seed,
+        "exponent_etm": exponents["etm"], "exponent_noetm": exponents["noetm"],
+        "bins": bins, "sumo_step_ms_median": sumo_med, "runs": runs,
+        "wall_s": round(time.perf_counter() - t_start, 1),
+        "note": "; ".join(notes) if notes else None,
+    }
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
