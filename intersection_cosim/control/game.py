@@ -117,6 +117,7 @@ class GameController:
         self.controlled: set[str] = set()
         self.convergence: list[ConvergenceRecord] = []
         self.filtered = 0  # accelerations the safety filter lowered
+        self._free_age: dict[str, int] = {}  # steps since a free vehicle's plan was solved
 
     # ------------------------------------------------------------------ setup
     def setup(self, context: ControlContext) -> None:
@@ -152,6 +153,7 @@ class GameController:
         for vid in decisions.release:
             self.plans.pop(vid, None)
             self.options.pop(vid, None)
+            self._free_age.pop(vid, None)
         if not active:
             return decisions
 
@@ -182,6 +184,7 @@ class GameController:
             vid = ids[k]
             if k in in_game:
                 _, plan, option = min(in_game[k], key=lambda e: e[0])  # the rule of the docstring
+                self._free_age.pop(vid, None)
             else:
                 plan, option = self._alone(world, k, leaders)
             self.plans[vid] = plan
@@ -430,6 +433,10 @@ class GameController:
         rows_of = self._rows_of
         vid = world.ids[k]
         opts = self._options(world, k)
+        free = len(opts) == 1 and rows_of[(k, opts[0])] not in leaders
+        if free and self._reuse_free_plan(world, k, opts[0]):
+            return self.plans[vid], opts[0]
+        self._free_age[vid] = 0
         problems, warm = {}, {}
         for o in opts:
             problems[(o,)] = Problem((self._player(world, k, o, leaders, rows_of),), ())
@@ -451,6 +458,30 @@ class GameController:
         else:
             self.warm[("solo", vid, choice[0])] = result.plans
         return plan, choice[0]
+
+    def _reuse_free_plan(self, world: World, k: int, option: str) -> bool:
+        """Reuse a free vehicle's last plan, shifted, instead of solving again.
+
+        A vehicle with no game, no leader and no exit choice minimises J_e plus the comfort
+        terms: a convex problem that is the same at every step but for its start state. The last
+        optimal plan shifted by one period is then optimal again for all but its appended last
+        step, so it is re-solved only every ``free_resolve_steps`` steps (1 = always), or when
+        the shifted plan would leave the speed limits or drift from the measured speed.
+        """
+        vid = world.ids[k]
+        age = self._free_age.get(vid)
+        plan = self.plans.get(vid)
+        if (age is None or plan is None or age + 1 >= self.gs.free_resolve_steps
+                or self.options.get(vid) != option):
+            return False
+        for _ in range(self.shift):
+            plan = shift_plan(plan)
+        v = float(world.v[k])
+        if abs(plan.speeds[0] - v) > 0.05 or plan.speeds.max() > self.model.v_max + 1e-6:
+            return False
+        self.plans[vid] = Plan.from_accelerations(float(world.s[k]), v, plan.accelerations, plan.dt)
+        self._free_age[vid] = age + 1
+        return True
 
     def _shifted(self, plans: tuple[Plan, ...]) -> tuple[Plan, ...]:
         out = []

@@ -76,6 +76,10 @@ class GameSettings:
     hessian_reuse_tol: float = 0.05  # [-] keep OSQP's installed P (no refactorisation) if the new
     #                                  Hessian differs from it by less than this (relative)
 
+    # --- closed-loop controller ---
+    free_resolve_steps: int = 5  # [-] control steps between solves of a vehicle with no game and
+    #                              no leader (its convex problem only shifts; control/game.py)
+
     # --- safety filter of the closed-loop controller (not in the paper; control/safety.py) ---
     safety_filter: bool = True  # [-] check every applied acceleration against collision
     safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
@@ -87,7 +91,7 @@ class GameSettings:
         return int(round(self.horizon / self.dt))
 
     def check(self) -> list[tuple[str, str]]:
-        problems = positive(self, "horizon", "dt", "a_max", "comfort_brake", "nash_tol",
+        problems = positive(self, "free_resolve_steps", "horizon", "dt", "a_max", "comfort_brake", "nash_tol",
                             "nash_max_iter", "sqp_steps_per_iteration", "stackelberg_tol",
                             "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
                             "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",
