@@ -116,33 +116,33 @@ def _cmd_run(args) -> int:
     return 0
 
 
-def _cmd_sweep(args) -> int:
-    from intersection_cosim.experiments.sweep import SweepInterrupted, make_spec, run_sweep
+def _interruptible(start) -> int:
+    """Run a sweep-like job; exit 130 with one line on Ctrl-C, 1 if any run failed."""
+    from intersection_cosim.experiments.sweep import SweepInterrupted
 
-    spec = make_spec(args.scenario, args.kappa, args.controller, args.seeds)
     try:
-        outcome = run_sweep(spec, args.out, workers=args.workers, dask_scheduler=args.dask_scheduler,
-                            progress=not args.no_progress)
+        outcome = start()
     except SweepInterrupted as exc:
         print(f"intersection-cosim: interrupted: {exc}", file=sys.stderr)
         return 130
-    print(outcome.line())
+    print("\n".join(outcome.lines()) if hasattr(outcome, "lines") else outcome.line())
     return 1 if outcome.failed else 0
+
+
+def _cmd_sweep(args) -> int:
+    from intersection_cosim.experiments.sweep import make_spec, run_sweep
+
+    spec = make_spec(args.scenario, args.kappa, args.controller, args.seeds)
+    return _interruptible(lambda: run_sweep(spec, args.out, workers=args.workers,
+                                            dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 
 
 def _cmd_compare(args) -> int:
     from intersection_cosim.experiments.compare import make_specs, run_compare
-    from intersection_cosim.experiments.sweep import SweepInterrupted
 
     specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration)
-    try:
-        outcome = run_compare(specs, args.out, workers=args.workers, dask_scheduler=args.dask_scheduler,
-                              progress=not args.no_progress)
-    except SweepInterrupted as exc:
-        print(f"intersection-cosim: interrupted: {exc}", file=sys.stderr)
-        return 130
-    print("\n".join(outcome.lines()))
-    return 1 if outcome.failed else 0
+    return _interruptible(lambda: run_compare(specs, args.out, workers=args.workers,
+                                              dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 
 
 def _cmd_report(args) -> int:
