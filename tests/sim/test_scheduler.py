@@ -1,0 +1,63 @@
+"""The step scheduler alone, with stand-in controllers (no SUMO needed)."""
+
+import time
+
+import numpy as np
+import pytest
+
+from intersection_cosim.control.base import Decisions, World
+from intersection_cosim.sim.scheduler import StepScheduler
+
+
+def _world(t=1.0):
+    return World(time=t, ids=["V1"], path_ids=["p"], s=np.zeros(1), v=np.ones(1), a=np.zeros(1),
+                 x=np.zeros(1), y=np.zeros(1), heading=np.zeros(1), kappa=np.full(1, 0.5), role=["ready"])
+
+
+class _Controller:
+    junction_type = "priority"
+    controls_vehicles = True
+
+    def __init__(self, sleep_s=0.0, fail=False):
+        self.sleep_s, self.fail = sleep_s, fail
+
+    def decide(self, world, deadline):
+        time.sleep(self.sleep_s)
+        if self.fail:
+            raise RuntimeError("solver crashed")
+        return Decisions(accel={"V1": 1.0}, games=2, iterations=5, pairs=[("V1", "V2")])
+
+    def fallback(self, world):
+        return Decisions(accel={"V1": -2.0})
+
+
+def test_within_budget_the_decisions_stand():
+    d, rec = StepScheduler(_Controller(), budget_ms=200.0).step(_world())
+    assert d.accel == {"V1": 1.0} and not rec.fallback and not rec.deadline_missed
+    assert rec.games == 2 and rec.iterations == 5 and 0.0 <= rec.compute_ms < 200.0
+
+
+def test_overrun_applies_the_fallback_and_keeps_the_counts():
+    d, rec = StepScheduler(_Controller(sleep_s=0.03), budget_ms=10.0).step(_world())
+    assert d.accel == {"V1": -2.0} and d.fallback
+    assert rec.deadline_missed and rec.fallback and rec.compute_ms >= 30.0
+    assert rec.games == 2 and d.pairs == [("V1", "V2")]  # what the overrunning step played
+
+
+def test_a_controller_error_is_a_logged_fallback_not_a_crash(caplog):
+    d, rec = StepScheduler(_Controller(fail=True), budget_ms=100.0).step(_world())
+    assert d.accel == {"V1": -2.0} and rec.fallback and not rec.deadline_missed
+    assert "solver crashed" in caplog.text
+
+
+def test_realtime_paces_to_the_wall_clock():
+    sched = StepScheduler(_Controller(), budget_ms=100.0, realtime=True)
+    start = time.perf_counter()
+    sched.pace(0.0)
+    sched.pace(0.25)  # 0.25 s of simulated time must take 0.25 s of wall time
+    assert time.perf_counter() - start == pytest.approx(0.25, abs=0.05)
+    fast = StepScheduler(_Controller(), budget_ms=100.0, realtime=False)
+    start = time.perf_counter()
+    fast.pace(0.0)
+    fast.pace(5.0)
+    assert time.perf_counter() - start < 0.05
