@@ -17,7 +17,9 @@ def _float(text: str | None) -> float:
         value = float(text)  # "NA" and None become NaN
     except (TypeError, ValueError):
         return math.nan
-    return value
+    # SUMO writes +-DBL_MAX (1.8e308) where a measure is undefined (e.g. the SSM's PET of some
+    # junction encounters): not a value.
+    return value if abs(value) < 1e300 else math.nan
 
 
 def read_tripinfo(path: str | Path) -> pd.DataFrame:

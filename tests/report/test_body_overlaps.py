@@ -23,3 +23,14 @@ def test_crossing_bodies_overlap_and_separated_ones_do_not():
         (3.0, "A", 0.0, 0.0, 0.0), (3.0, "B", -4.0, 0.0, 0.0),
     ]
     assert body_overlaps(_traj(rows), 4.5, 1.8) == [(0.0, "A", "B"), (3.0, "A", "B")]
+
+
+def test_sumo_sentinel_values_are_not_measurements(tmp_path):
+    from intersection_cosim.report.sumo_outputs import read_ssm
+
+    (tmp_path / "ssm.xml").write_text(
+        '<SSMLog><conflict begin="1" end="2" ego="a" foe="b">'
+        '<minTTC time="1.5" value="NA"/><PET time="1.8" value="-1.79769e+308"/>'
+        '<maxDRAC time="1.6" value="2.5"/></conflict></SSMLog>')
+    row = read_ssm(tmp_path / "ssm.xml").iloc[0]
+    assert math.isnan(row["min_ttc"]) and math.isnan(row["pet"]) and row["max_drac"] == 2.5
