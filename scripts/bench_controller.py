@@ -23,7 +23,6 @@ import json
 import platform
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +31,7 @@ import pandas as pd
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.scenario import load_scenario, with_overrides
 from intersection_cosim.sim import sumo as sumo_mod
+from intersection_cosim.sim.timing import sumo_step_timer
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {"case1_A": ROOT / "scenarios" / "case1_A.toml", "case2_A": ROOT / "scenarios" / "case2_A.toml"}
@@ -39,20 +39,6 @@ SOLVERS = ("nash", "stackelberg")
 SKIP_FIRST = 3  # control steps dropped for the "excluding warm-up" statistic
 TARGET_CASE2_NASH_MEDIAN_MS = 2.0
 TARGET_ETM_CUT = 0.40
-
-_sumo_ms: list[float] = []  # per advance() call, of the run in progress
-
-
-def _install_timer() -> None:
-    original = sumo_mod.SumoSimulation.advance
-
-    def timed_advance(self) -> None:
-        t0 = time.perf_counter()
-        original(self)
-        _sumo_ms.append((time.perf_counter() - t0) * 1e3)
-
-    sumo_mod.SumoSimulation.advance = timed_advance
-
 
 def _stats(x) -> dict:
     a = np.asarray(x, dtype=float)
@@ -63,20 +49,19 @@ def _stats(x) -> dict:
 
 
 def run(repeat: int) -> dict:
-    _install_timer()
     configs = [(case, solver, etm) for case in CASES for solver in SOLVERS for etm in (True, False)]
     base = {case: load_scenario(path) for case, path in CASES.items()}
     data = {c: {"ctrl": [], "ctrl_games": [], "ctrl_skip": [], "first": [], "sumo_step": [], "sumo_period": []}
             for c in configs}
     period_steps = {}
-    with tempfile.TemporaryDirectory(prefix="bench_controller_") as tmp:
+    with sumo_step_timer() as sumo_ms, tempfile.TemporaryDirectory(prefix="bench_controller_") as tmp:
         for r in range(repeat):  # outermost: interleave the configurations
             for case, solver, etm in configs:
                 scn = with_overrides(base[case], controller=solver, etm=etm)
                 ps = max(1, int(round(scn.controller.period / scn.scenario.step_length)))
                 period_steps[case] = ps
                 out = Path(tmp) / f"{case}_{solver}_{'etm' if etm else 'noetm'}_{r}"
-                _sumo_ms.clear()
+                sumo_ms.clear()  # SUMO steps of this run only
                 run_scenario(scn, out)
                 steps = pd.read_csv(out / "steps.csv")
                 d = data[(case, solver, etm)]
@@ -85,7 +70,7 @@ def run(repeat: int) -> dict:
                 d["ctrl_games"].extend(ms[steps["games"].to_numpy() > 0])
                 d["ctrl_skip"].extend(ms[SKIP_FIRST:])
                 d["first"].append(float(ms[0]) if ms.size else float("nan"))
-                s = np.asarray(_sumo_ms)
+                s = np.asarray(sumo_ms)
                 d["sumo_step"].extend(s)
                 body = s[1:]  # the first call inserts the vehicles at time 0, before the first control step
                 n = body.size // ps

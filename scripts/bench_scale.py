@@ -34,16 +34,13 @@ import pandas as pd
 
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.scenario import scenario_from_dict
-from intersection_cosim.sim import sumo as sumo_mod
+from intersection_cosim.sim.timing import sumo_step_timer
 
 TARGETS = (10, 20, 40, 80)
 # total demand [veh/h] over the 12 flows (4 approaches x 3 movements) aimed at each target
 TOTAL_RATES = {10: 2400.0, 20: 4200.0, 40: 6500.0, 80: 9000.0}  # congestion: n grows fast past ~6000
 APPROACHES = ("north", "south", "east", "west")
 MOVEMENTS = ("left", "straight", "right")
-
-_sumo_ms: list[float] = []
-
 
 def build_scenario(total_rate: float, duration: float, seed: int, etm: bool):
     per_flow = total_rate / (len(APPROACHES) * len(MOVEMENTS))
@@ -64,8 +61,8 @@ def build_scenario(total_rate: float, duration: float, seed: int, etm: bool):
     return scn
 
 
-def run_one(scn, warmup: float) -> dict:
-    _sumo_ms.clear()
+def run_one(scn, warmup: float, sumo_ms: list[float]) -> dict:
+    sumo_ms.clear()  # SUMO steps of this run only
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="bench_scale_") as tmp:
         out = Path(tmp) / "run"
@@ -77,7 +74,7 @@ def run_one(scn, warmup: float) -> dict:
     steps["n"] = steps["time"].round(3).map(inzone).fillna(0).astype(int)
     steps = steps[steps["time"] >= warmup]
     return {"steps": steps[["time", "n", "compute_ms", "games"]].copy(),
-            "sumo_ms": list(_sumo_ms), "wall_s": wall}
+            "sumo_ms": list(sumo_ms), "wall_s": wall}
 
 
 def main() -> int:
@@ -89,20 +86,12 @@ def main() -> int:
                     help="[s] skip a no-ETM run whose predicted wall time exceeds this")
     args = ap.parse_args()
 
-    original = sumo_mod.SumoSimulation.advance
-
-    def timed_advance(self) -> None:
-        t0 = time.perf_counter()
-        original(self)
-        _sumo_ms.append((time.perf_counter() - t0) * 1e3)
-
-    sumo_mod.SumoSimulation.advance = timed_advance
     notes: list[str] = []
     all_steps = {True: [], False: []}
     sumo_all = {True: [], False: []}
     runs = []
     t_start = time.perf_counter()
-    try:
+    with sumo_step_timer() as sumo_ms:
         prev_noetm = None
         for target in TARGETS:
             for etm in (True, False):
@@ -114,7 +103,7 @@ def main() -> int:
                                      f"{predicted:.0f} s wall > {args.max_noetm_s:.0f} s)")
                         continue
                 scn = build_scenario(TOTAL_RATES[target], args.duration, args.seed, etm)
-                r = run_one(scn, args.warmup)
+                r = run_one(scn, args.warmup, sumo_ms)
                 st = r["steps"]
                 print(f"  target {target:3d} etm={etm!s:5}: wall {r['wall_s']:6.1f} s, n median "
                       f"{st['n'].median():.0f} [{st['n'].min()}-{st['n'].max()}], compute median "
@@ -128,8 +117,6 @@ def main() -> int:
                 sumo_all[etm].extend(r["sumo_ms"])
                 if not etm:
                     prev_noetm = (target, r["wall_s"])
-    finally:
-        sumo_mod.SumoSimulation.advance = original
 
     bins = {}
     exponents = {}

@@ -217,7 +217,6 @@ class PlayerObjective:
 
     def model(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Gradient (N,) and convex Gauss-Newton Hessian (N, N) of C_p at ``a``."""
-        hm = self.hm
         grad = self.Q @ a + self.b0
         H = self.Q.copy()
         if self._lat or self._log:
