@@ -280,18 +280,23 @@ class PlayerObjective:
         alpha = inv * hm.k_half + c
         return (np.multiply.outer(inv, hm.m_dt2) - alpha[:, None]) * hm.Lv
 
-    def _lateral_model(self, g, d, v, inv, active, grad, H) -> None:
-        """Add the Gauss-Newton model of sum_k w_lat f(g_k) (Eq. 19), g = TTC_lat, to grad, H."""
-        if not active.any():
-            return
+    def _lateral_weights(self, g, active) -> tuple[np.ndarray, np.ndarray]:
+        """Gauss-Newton weights of sum_k w_lat f(g_k), f(g) = 1 / (g^2 + eps) (Eq. 19): the slope
+        w f'(g) and the convex part of the curvature w max(f''(g), 0), per step."""
         eps = self._eps
         gg = g * g
         den = gg + eps
         den2 = den * den
         w = self.w_lat * active
+        return w * (-2.0 * g) / den2, w * np.maximum((6.0 * gg - 2.0 * eps) / (den2 * den), 0.0)
+
+    def _lateral_model(self, g, d, v, inv, active, grad, H) -> None:
+        """Add the Gauss-Newton model of sum_k w_lat f(g_k) (Eq. 19), g = TTC_lat, to grad, H."""
+        if not active.any():
+            return
+        w1, w2 = self._lateral_weights(g, active)
         G = self._lateral_jacobian(d, v, inv)
-        grad += G.T @ (w * (-2.0 * g) / den2)
-        w2 = w * np.maximum((6.0 * gg - 2.0 * eps) / (den2 * den), 0.0)
+        grad += G.T @ w1
         H += (G.T * w2) @ G
 
     def _following_jacobian(self, gap, dv):
@@ -299,21 +304,30 @@ class PlayerObjective:
         hm = self.hm
         return (self.dt / gap)[:, None] * hm.Lv + (dv / (gap * gap))[:, None] * hm.Ls
 
-    def _following_model(self, s_lead, v_lead, v, s, grad, H) -> None:
-        """Add the Gauss-Newton model of sum_k w_log h(r_k) (Eq. 15), r = 1 / TTC_log."""
+    def _following_terms(self, s_lead, v_lead, v, s):
+        """Jacobian R = dr/da and the Gauss-Newton weights (slope, convex curvature) of
+        sum_k w_log h(r_k), h(r) = r^2 / (1 + eps r^2) (Eq. 15), r = 1 / TTC_log; None when the
+        player closes in on its leader at no step."""
         gap = np.maximum(s_lead - s, self.gs.gap_floor)
         dv = v - v_lead
         r = dv / gap
         closing = r > 0
         if not closing.any():
-            return
+            return None
         eps = self._eps
         den = 1.0 + eps * r * r
         den2 = den * den
         w = self.w_log * closing
-        R = self._following_jacobian(gap, dv)
-        grad += R.T @ (w * 2.0 * r / den2)
-        w2 = w * np.maximum((2.0 - 6.0 * eps * r * r) / (den2 * den), 0.0)
+        return (self._following_jacobian(gap, dv), w * 2.0 * r / den2,
+                w * np.maximum((2.0 - 6.0 * eps * r * r) / (den2 * den), 0.0))
+
+    def _following_model(self, s_lead, v_lead, v, s, grad, H) -> None:
+        """Add the Gauss-Newton model of sum_k w_log h(r_k) (Eq. 15), r = 1 / TTC_log."""
+        terms = self._following_terms(s_lead, v_lead, v, s)
+        if terms is None:
+            return
+        R, w1, w2 = terms
+        grad += R.T @ w1
         H += (R.T * w2) @ R
 
     # ------------------------------------------------------------------ pair model (Stackelberg)
@@ -325,7 +339,7 @@ class PlayerObjective:
         p's exact quadratic terms and its terms with other players in H_pp. ``plan_q`` must be
         the plan of q installed by :meth:`set_others`.
         """
-        n, hm, eps = self.n, self.hm, self._eps
+        n, hm = self.n, self.hm
         grad_p = self.Q @ a + self.b0
         H_pp = self.Q.copy()
         grad_q = np.zeros(n)
@@ -343,29 +357,17 @@ class PlayerObjective:
                 if not active.any():
                     continue
                 g = d * inv - tcp_q
-                gg = g * g
-                den = gg + eps
-                den2 = den * den
-                w = self.w_lat * active
                 G = self._lateral_jacobian(d, v, inv)
                 # g = TCP_p - TCP_q, so dg/da_q = -dTCP_q/da_q
                 Gq = -self._lateral_jacobian(scp_q - s_q, v_q, inv_q) if other == q else None
-                terms.append((G, Gq, w * (-2.0 * g) / den2,
-                              w * np.maximum((6.0 * gg - 2.0 * eps) / (den2 * den), 0.0)))
+                terms.append((G, Gq, *self._lateral_weights(g, active)))
         for (other, _off), (s_lead, v_lead) in zip(self.log_terms, self._log):
-            gap = np.maximum(s_lead - s, self.gs.gap_floor)
-            dv = v - v_lead
-            r = dv / gap
-            closing = r > 0
-            if not closing.any():
+            following = self._following_terms(s_lead, v_lead, v, s)
+            if following is None:
                 continue
-            den = 1.0 + eps * r * r
-            den2 = den * den
-            w = self.w_log * closing
-            R = self._following_jacobian(gap, dv)
+            R, w1, w2 = following
             # r depends on the leader through -dv and +gap: dr/da_leader = -R (same time grid)
-            terms.append((R, -R if other == q else None, w * 2.0 * r / den2,
-                          w * np.maximum((2.0 - 6.0 * eps * r * r) / (den2 * den), 0.0)))
+            terms.append((R, -R if other == q else None, w1, w2))
         for G, Gq, w1, w2 in terms:
             grad_p += G.T @ w1
             GW = G.T * w2
