@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -25,6 +27,18 @@ def comparable(table: pd.DataFrame) -> pd.DataFrame:
 
 def read_table(out: Path) -> pd.DataFrame:
     return pd.read_csv(Path(out) / TABLE_FILE, keep_default_na=False, na_values=[""])
+
+
+def wait_for_a_finished_run(out: Path, proc: subprocess.Popen, timeout: float = 90.0) -> None:
+    """Return once a run folder under ``out`` holds summary.json, ``proc`` has ended, or after
+    ``timeout`` seconds."""
+    from intersection_cosim.experiments.sweep import RUNS_DIR
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        if list(Path(out).glob(f"{RUNS_DIR}/*/summary.json")):
+            return
+        time.sleep(0.02)
 
 
 def group_alive(pgid: int) -> list[int]:

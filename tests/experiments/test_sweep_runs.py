@@ -17,7 +17,8 @@ import pytest
 from intersection_cosim.cli import main
 from intersection_cosim.experiments.executors import execute_job
 from intersection_cosim.experiments.sweep import FAILED_DIR, RUNS_DIR, SPEC_FILE, make_spec
-from sweep_helpers import CASE1A, GRID_RUNS, comparable, group_alive, read_table, run_children, sweep_args
+from sweep_helpers import (CASE1A, GRID_RUNS, comparable, group_alive, read_table, run_children, sweep_args,
+                           wait_for_a_finished_run)
 
 pytestmark = pytest.mark.slow
 
@@ -67,11 +68,7 @@ def test_sigkill_then_rerun_equals_uninterrupted(reference_sweep, tmp_path):
     cmd = [sys.executable, "-m", "intersection_cosim", *sweep_args(out, "--workers", "2")]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        deadline = time.monotonic() + 90
-        while time.monotonic() < deadline and proc.poll() is None:
-            if list(out.glob(f"{RUNS_DIR}/*/summary.json")):
-                break
-            time.sleep(0.02)
+        wait_for_a_finished_run(out, proc)
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
@@ -144,11 +141,7 @@ def test_ctrl_c_stops_cleanly_and_keeps_finished_runs(tmp_path):
            "--out", str(out), "--workers", "2"]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 90
-        while time.monotonic() < deadline and proc.poll() is None:
-            if list(out.glob(f"{RUNS_DIR}/*/summary.json")):
-                break
-            time.sleep(0.02)
+        wait_for_a_finished_run(out, proc)
         os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
         _, err = proc.communicate(timeout=30)
     finally:
