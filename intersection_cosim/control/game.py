@@ -161,7 +161,6 @@ class GameController:
             return decisions
 
         rows = self._rows(world, active_set)
-        self._rows_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
         present = {ids[k] for k in active}
         # Warm starts are keyed ("solo", vehicle, exit) or ("game", vehicle_a, vehicle_b, exit_a, exit_b).
         self.warm = {key: v for key, v in self.warm.items()
@@ -269,13 +268,18 @@ class GameController:
             self.controlled.add(vid)
         if self.gs.safety_filter and active:
             rows = self._rows(world, active)
-            self._rows_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
             leaders, lateral = self._relations(world, rows, active)
             self._safety_filter(world, rows, leaders, lateral, decisions)
         return decisions
 
     # ------------------------------------------------------------------ pieces
     def _rows(self, world: World, active: set[int]) -> _Rows:
+        """The ETM's rows of this step; also indexes them as ``self._rows_of[(vehicle, exit)]``."""
+        rows = self._build_rows(world, active)
+        self._rows_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
+        return rows
+
+    def _build_rows(self, world: World, active: set[int]) -> _Rows:
         vehicle, option, path = [], [], []
         for k in range(len(world)):
             pid = world.path_ids[k]
