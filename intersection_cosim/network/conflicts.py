@@ -29,6 +29,13 @@ returns at most one :class:`ConflictPoint`. The rules, applied in this order:
    at the closest approach (``(x, y)`` the midpoint).
 4. Otherwise no conflict: the pair is absent.
 
+A point is where the centre lines meet; two bodies 4.5 m x 1.8 m meet over a stretch. For a
+**cross** pair the table also holds that stretch on each path (:func:`conflict_zone`): the front
+arc lengths ``[zone_in, zone_out]`` over which the body of a vehicle on ``a`` overlaps the area
+that ``b``'s bodies sweep through the junction. A vehicle whose front is past
+``zone_out`` has cleared the crossing whatever the other does; an oblique crossing (a left turn)
+takes several metres more than ``s_a + length`` to clear, which a point plus a constant misses.
+
 Outside the junction, paths on different lanes run 4 m apart, so only the junction stretch
 ``[s_stop, s_exit]`` (plus one resampling step either side) is searched for rules 2 and 3.
 
@@ -46,6 +53,7 @@ from dataclasses import dataclass, field
 from pathlib import Path as FsPath
 
 import numpy as np
+from scipy.spatial import cKDTree
 from sumolib import geomhelper
 
 from intersection_cosim.network.paths import MovementPath, load_paths
@@ -58,6 +66,8 @@ KIND_NAMES = ("none", "following", "cross", "confluence")  # index = kind code
 KIND_CODE = {name: code for code, name in enumerate(KIND_NAMES)}
 
 _CROSS_CANDIDATE = 0.75  # [m] sample pairs closer than this may hold a crossing of their segments
+_ZONE_STEP = 0.25  # [m] spacing of the front positions and body-outline samples of conflict_zone
+_ZONE_MARGIN = 0.2  # [m] an outline point this close to a swept-area grid point overlaps it
 
 
 @dataclass(frozen=True)
@@ -196,6 +206,58 @@ def load_conflicts(net_file: str | FsPath, vehicle_width: float = 1.8) -> dict[t
     return _load_conflicts(str(net_file), float(vehicle_width))
 
 
+def _body_points(path: MovementPath, s_front: np.ndarray, length: float, width: float,
+                 outline: bool) -> np.ndarray:
+    """[m] (S, B, 2) points of the body rectangle (``length`` x ``width``, heading of the path at
+    the front bumper, as :func:`report.metrics.body_overlaps` places it) for each front arc
+    length in ``s_front``: its outline, or a grid over its whole area, ``_ZONE_STEP`` apart."""
+    along = np.linspace(-length, 0.0, int(np.ceil(length / _ZONE_STEP)) + 1)
+    across = np.linspace(-width / 2, width / 2, int(np.ceil(width / _ZONE_STEP)) + 1)
+    if outline:
+        local = np.concatenate([
+            np.stack([along, np.full_like(along, -width / 2)], 1),
+            np.stack([along, np.full_like(along, width / 2)], 1),
+            np.stack([np.zeros_like(across), across], 1),
+            np.stack([np.full_like(across, -length), across], 1),
+        ])
+    else:
+        u, w = np.meshgrid(along, across, indexing="ij")
+        local = np.stack([u.ravel(), w.ravel()], 1)
+    h = path.heading_at(s_front)
+    d = np.stack([np.cos(h), np.sin(h)], -1)  # (S, 2)
+    n = np.stack([-d[:, 1], d[:, 0]], -1)
+    front = path.point_at(s_front)
+    return front[:, None, :] + local[None, :, 0:1] * d[:, None, :] + local[None, :, 1:2] * n[:, None, :]
+
+
+def _fronts(path: MovementPath, length: float) -> np.ndarray:
+    """[m] front arc lengths from just before the stop line until the rear has left the junction."""
+    return np.arange(path.s_stop - _ZONE_STEP, min(path.s_exit + length + _ZONE_STEP, path.length), _ZONE_STEP)
+
+
+def conflict_zone(a: MovementPath, b: MovementPath, length: float = 4.5, width: float = 1.8,
+                  swept_b: cKDTree | None = None) -> tuple[float, float] | None:
+    """[m] ``(zone_in, zone_out)``: the front arc lengths on ``a`` between which a body on ``a``
+    overlaps the area that bodies on ``b`` sweep through the junction, or None if it never does.
+
+    Bodies are rigid rectangles headed along the path at the front bumper (a turning body's
+    rear swings out of its lane by up to L^2 / 2R, about 0.8 m on a left turn here). The area
+    ``b`` sweeps is a grid of points over its bodies at every front 0.25 m apart; a body on ``a``
+    overlaps it where a point of its outline comes within ``_ZONE_MARGIN`` of one (the grid's
+    spacing, so the zone errs a little on the long side). ``swept_b``: that grid's KD-tree, if
+    already built."""
+    if swept_b is None:
+        swept_b = cKDTree(_body_points(b, _fronts(b, length), length, width, outline=False).reshape(-1, 2))
+    s_front = _fronts(a, length)
+    pts = _body_points(a, s_front, length, width, outline=True)
+    dist, _ = swept_b.query(pts.reshape(-1, 2), distance_upper_bound=1.0)
+    hit = (dist.reshape(pts.shape[:2]) < _ZONE_MARGIN).any(axis=1)
+    if not hit.any():
+        return None
+    k = np.flatnonzero(hit)
+    return float(s_front[k[0]]), float(s_front[k[-1]])
+
+
 @dataclass(frozen=True)
 class ConflictTable:
     """Paths and their conflict points as arrays indexed by integer path index (hot-path lookup).
@@ -203,6 +265,8 @@ class ConflictTable:
     For paths with indices ``p``, ``q``: ``kind[p, q]`` is the kind code (``KIND_NAMES``),
     ``s_a[p, q]`` [m] the conflict point's arc length on path ``p``, ``s_b[p, q]`` [m] on path
     ``q`` (``s_b[p, q] == s_a[q, p]``), ``x``/``y`` [m] its position; NaN where there is none.
+    For cross pairs ``zone_in[p, q]`` / ``zone_out[p, q]`` [m] are the front arc lengths on ``p``
+    between which a body on ``p`` overlaps the area ``q``'s bodies sweep (:func:`conflict_zone`); NaN otherwise.
     """
 
     ids: tuple[str, ...]
@@ -215,22 +279,36 @@ class ConflictTable:
     s_stop: np.ndarray = field(repr=False)  # (P,) [m] arc length of each path's stop line
     s_exit: np.ndarray = field(repr=False)  # (P,) [m] arc length where each path enters its exit lane
     length: np.ndarray = field(repr=False)  # (P,) [m] total arc length of each path
+    zone_in: np.ndarray = field(repr=False, default=None)  # (P, P) [m] cross pairs: see above
+    zone_out: np.ndarray = field(repr=False, default=None)  # (P, P) [m]
 
     @classmethod
     def build(cls, paths: dict[str, MovementPath],
-              conflicts: dict[tuple[str, str], ConflictPoint]) -> ConflictTable:
+              conflicts: dict[tuple[str, str], ConflictPoint],
+              vehicle_length: float = 4.5, vehicle_width: float = 1.8) -> ConflictTable:
         ids = tuple(paths)
         index = {pid: i for i, pid in enumerate(ids)}
         n = len(ids)
         kind = np.zeros((n, n), np.int8)
-        s_a, s_b, x, y = (np.full((n, n), np.nan) for _ in range(4))
+        s_a, s_b, x, y, zone_in, zone_out = (np.full((n, n), np.nan) for _ in range(6))
+        swept: dict[str, cKDTree] = {}  # path -> KD-tree of the area its bodies sweep
         for (a, b), cp in conflicts.items():
             if a not in index or b not in index:
                 continue
             p, q = index[a], index[b]
             kind[p, q] = KIND_CODE[cp.kind]
             s_a[p, q], s_b[p, q], x[p, q], y[p, q] = cp.s_a, cp.s_b, cp.x, cp.y
+            if cp.kind == "cross":
+                if b not in swept:
+                    pb = paths[b]
+                    swept[b] = cKDTree(_body_points(pb, _fronts(pb, vehicle_length), vehicle_length,
+                                                    vehicle_width, outline=False).reshape(-1, 2))
+                zone = conflict_zone(paths[a], paths[b], vehicle_length, vehicle_width, swept[b])
+                if zone is None:  # centre lines within a width but outlines apart: the point itself
+                    zone = (cp.s_a - vehicle_width / 2, cp.s_a + vehicle_width / 2 + vehicle_length)
+                zone_in[p, q], zone_out[p, q] = zone
         return cls(ids=ids, index=index, kind=kind, s_a=s_a, s_b=s_b, x=x, y=y,
+                   zone_in=zone_in, zone_out=zone_out,
                    s_stop=np.array([paths[i].s_stop for i in ids]),
                    s_exit=np.array([paths[i].s_exit for i in ids]),
                    length=np.array([paths[i].length for i in ids]))
@@ -246,10 +324,12 @@ class ConflictTable:
 
 
 @functools.lru_cache(maxsize=8)
-def _load_conflict_table(net_file: str, vehicle_width: float) -> ConflictTable:
-    return ConflictTable.build(load_paths(net_file), _load_conflicts(net_file, vehicle_width))
+def _load_conflict_table(net_file: str, vehicle_width: float, vehicle_length: float) -> ConflictTable:
+    return ConflictTable.build(load_paths(net_file), _load_conflicts(net_file, vehicle_width),
+                               vehicle_length, vehicle_width)
 
 
-def load_conflict_table(net_file: str | FsPath, vehicle_width: float = 1.8) -> ConflictTable:
-    """:class:`ConflictTable` of the net, cached per (net file, width)."""
-    return _load_conflict_table(str(net_file), float(vehicle_width))
+def load_conflict_table(net_file: str | FsPath, vehicle_width: float = 1.8,
+                        vehicle_length: float = 4.5) -> ConflictTable:
+    """:class:`ConflictTable` of the net, cached per (net file, width [m], length [m])."""
+    return _load_conflict_table(str(net_file), float(vehicle_width), float(vehicle_length))
