@@ -79,6 +79,8 @@ def build_parser() -> argparse.ArgumentParser:
                          help="controller kinds, comma-separated (default: %(default)s)")
     compare.add_argument("--seeds", default="1-5", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: 1-5)")
     compare.add_argument("--duration", type=_positive_float, help="[s] override every scenario's demand window")
+    compare.add_argument("--budget-ms", type=_positive_float,
+                         help="[ms] override every run's wall-time budget per control step")
     compare.add_argument("--out", required=True, help="comparison folder; rerunning the same command skips "
                          "finished runs")
     where = compare.add_mutually_exclusive_group()
@@ -140,7 +142,7 @@ def _cmd_sweep(args) -> int:
 def _cmd_compare(args) -> int:
     from intersection_cosim.experiments.compare import make_specs, run_compare
 
-    specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration)
+    specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration, args.budget_ms)
     return _interruptible(lambda: run_compare(specs, args.out, workers=args.workers,
                                               dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 

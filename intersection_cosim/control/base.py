@@ -48,6 +48,7 @@ class Decisions:
     games: int = 0  # games played this step
     iterations: int = 0  # equilibrium iterations (summed over games)
     pairs: list[tuple[str, str]] = field(default_factory=list)  # pairs that played a game
+    deferred: int = 0  # games / solo solves left out to meet the budget (last plan kept, shifted)
     fallback: bool = False  # the decisions are the scheduler's fallback
     note: str = ""  # why a fallback was used
 

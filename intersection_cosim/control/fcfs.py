@@ -145,7 +145,8 @@ class FcfsController:
             self.fs = context.solver
         self.paths = context.paths
         self.model = context.model
-        self.table = load_conflict_table(context.net_file, context.model.vehicle_width)
+        self.table = load_conflict_table(context.net_file, context.model.vehicle_width,
+                                         context.model.vehicle_length)
         self._approach_lane = {pid: p.approach_lane for pid, p in self.paths.items()}
         self._point_key: dict = {}
 

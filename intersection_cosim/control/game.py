@@ -39,7 +39,9 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -75,6 +77,20 @@ class _Leader:
     vehicle: int  # World index of the leader
     offset: float  # [m] leader's s in the follower's path = s_leader + offset
     gap: float  # [m] distance along the shared stretch (front to front)
+
+
+class _Lateral(NamedTuple):
+    """A cross or confluence pair of rows that has not cleared its crossing."""
+
+    ri: int
+    rj: int
+    kind: str  # "cross" | "confluence"
+    s_i: float  # [m] conflict point on row ri's path
+    s_j: float  # [m] conflict point on row rj's path
+    live: bool  # neither has passed the point by conflict_clearance: J_lat applies, games may run
+    play: bool  # live and triggered (or the ETM is off): the pair plays a game this step
+    zone_i: tuple[float, float]  # [m] front arc lengths on ri's path over which it occupies the crossing
+    zone_j: tuple[float, float]  # [m] the same on rj's path
 
 
 @dataclass
@@ -117,7 +133,11 @@ class GameController:
         self.controlled: set[str] = set()
         self.convergence: list[ConvergenceRecord] = []
         self.filtered = 0  # accelerations the safety filter lowered
-        self._free_age: dict[str, int] = {}  # steps since a free vehicle's plan was solved
+        self._game_s = {False: 0.004, True: 0.002}  # [s] running mean wall time of one exit-lane
+        #                                              combination of a game, cold / warm
+        self._solo_s = 0.001  # [s] running mean wall time of one solo solve
+        self._choice_age: dict[str, int] = {}  # steps since a vehicle's exit lane was last decided
+        self._solo_inputs: dict[str, tuple] = {}  # vehicle -> (steps since its solo solve, exit, leader prediction used)
         self._decided_at: float | None = None  # [s] time of the last decide call
         self._applied: dict[str, Plan] = {}  # plans applied before that call
 
@@ -128,7 +148,8 @@ class GameController:
         self.paths = context.paths
         if context.solver is not None:
             self.gs = context.solver
-        self.table = load_conflict_table(context.net_file, context.model.vehicle_width)
+        self.table = load_conflict_table(context.net_file, context.model.vehicle_width,
+                                         context.model.vehicle_length)
         self.etm = context.etm
         self.shift = max(1, int(round(context.control_period / self.gs.dt)))
         reset_workspaces()
@@ -156,7 +177,8 @@ class GameController:
         for vid in decisions.release:
             self.plans.pop(vid, None)
             self.options.pop(vid, None)
-            self._free_age.pop(vid, None)
+            self._solo_inputs.pop(vid, None)
+            self._choice_age.pop(vid, None)
         if not active:
             return decisions
 
@@ -169,10 +191,25 @@ class GameController:
         self._effective = self._effective_options(world, rows, leaders, lateral)
         games = self._games(rows, lateral)
 
+        # Anytime step: the most urgent work first; what would not fit before the deadline less
+        # a reserve (for the safety filter) is deferred: its vehicles keep their last plan, shifted.
+        start = time.perf_counter()
+        cutoff = deadline - self.gs.anytime_reserve * max(deadline - start, 0.0)
         in_game: dict[int, list[tuple[float, Plan, str]]] = {}
-        for game in games.values():
+        for game in sorted(games.values(), key=lambda g: self._urgency(world, g)):
             ka, kb = game.a, game.b
-            result, choice = self._play(world, game, leaders, deadline)
+            warm = any(key[:3] == ("game", ids[ka], ids[kb]) for key in self.warm)
+            combos = len(self._options(world, ka)) * len(self._options(world, kb))
+            if time.perf_counter() + 2.0 * combos * self._game_s[warm] > cutoff:  # 2x: room for a slow one
+                decisions.deferred += 1
+                self._game_s[warm] *= 0.95  # so one slow solve cannot defer every later game
+                for k in (ka, kb):
+                    plan = self._kept_plan(world, k)
+                    in_game.setdefault(k, []).append((float(plan.accelerations[0]), plan, self._held_option(world, k)))
+                continue
+            t0 = time.perf_counter()
+            result, choice = self._play(world, game, leaders, cutoff)
+            self._game_s[warm] = 0.8 * self._game_s[warm] + 0.2 * (time.perf_counter() - t0) / combos
             decisions.games += 1
             decisions.iterations += result.iterations
             decisions.pairs.append((ids[ka], ids[kb]))
@@ -182,21 +219,54 @@ class GameController:
                 world.time, ids[ka], ids[kb], self.equilibrium, result.status, result.iterations,
                 tuple(float(r) for r in result.residuals), tuple(float(c) for c in result.costs)))
 
+        solo = sorted((k for k in active if k not in in_game),
+                      key=lambda k: self.paths[world.path_ids[k]].s_stop - float(world.s[k]))
         for k in active:
-            vid = ids[k]
             if k in in_game:
                 _, plan, option = min(in_game[k], key=lambda e: e[0])  # the rule of the docstring
-                self._free_age.pop(vid, None)
-            else:
-                plan, option = self._alone(world, k, leaders)
-            self.plans[vid] = plan
-            self.options[vid] = option
-            decisions.accel[vid] = float(plan.accelerations[0])
-            if len(world.exit_choices.get(vid, ())) > 1:
-                decisions.exit_lane[vid] = option
+                self._solo_inputs.pop(ids[k], None)
+                self._apply(world, k, plan, option, decisions)
+        for k in solo:
+            plan, option = self._alone(world, k, leaders, cutoff, decisions)
+            self._apply(world, k, plan, option, decisions)
         if self.gs.safety_filter:
             self._safety_filter(world, rows, leaders, lateral, decisions)
         return decisions
+
+    def _apply(self, world: World, k: int, plan: Plan, option: str, decisions: Decisions) -> None:
+        vid = world.ids[k]
+        self.plans[vid] = plan
+        self.options[vid] = option
+        decisions.accel[vid] = float(plan.accelerations[0])
+        if len(world.exit_choices.get(vid, ())) > 1:
+            decisions.exit_lane[vid] = option
+
+    def _urgency(self, world: World, game: _Game) -> tuple[float, int, int]:
+        """[s] the smaller time to its conflict point of the pair (TCP, Eq. 8): games are
+        played in this order, most urgent first (ties by vehicle index, deterministic)."""
+        floor = self.model.tcp_speed_floor
+        tcp = math.inf
+        for inters in game.combos.values():
+            for it in inters:
+                if it.lateral:
+                    tcp = min(tcp, (it.s_cp_i - float(world.s[game.a])) / max(float(world.v[game.a]), floor),
+                              (it.s_cp_j - float(world.s[game.b])) / max(float(world.v[game.b]), floor))
+        return (tcp, game.a, game.b)
+
+    def _kept_plan(self, world: World, k: int) -> Plan:
+        """Vehicle k's last applied plan shifted by one period and started from its measured
+        state; comfortable braking if it has none."""
+        plan = self.plans.get(world.ids[k])
+        if plan is not None:
+            for _ in range(self.shift):
+                plan = shift_plan(plan)
+            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), plan.accelerations, plan.dt)
+        a = np.full(self.gs.steps, -self.gs.comfort_brake)
+        return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.gs.dt)
+
+    def _held_option(self, world: World, k: int) -> str:
+        """The exit lane vehicle k holds: its last choice, else its path's."""
+        return self.options.get(world.ids[k], self.paths[world.path_ids[k]].exit_lane)
 
     def _safety_filter(self, world: World, rows: _Rows, leaders, lateral, decisions: Decisions) -> None:
         """Lower accelerations whose plans would collide (control/safety.py)."""
@@ -212,21 +282,21 @@ class GameController:
             gap = lead.gap - ms.vehicle_length - gs.safety_margin  # [m] bumper to bumper, less margin
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -gs.a_min, period)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k_of[r]])) / period)
-        half, length = ms.vehicle_width / 2, ms.vehicle_length
-        for ri, rj, _kind, s_i, s_j, _play in lateral:
+        for lat in lateral:
+            ri, rj = lat.ri, lat.rj
             if not (chosen[ri] and chosen[rj]):
                 continue
             ki, kj = int(k_of[ri]), int(k_of[rj])
             pi, pj = self.plans.get(ids[ki]), self.plans.get(ids[kj])
             if pi is None or pj is None:
                 continue
-            in_i, out_i = occupancy(pi, s_i, ms.vehicle_width, length)
-            in_j, out_j = occupancy(pj, s_j, ms.vehicle_width, length)
+            in_i, out_i = occupancy(pi, *lat.zone_i)
+            in_j, out_j = occupancy(pj, *lat.zone_j)
             if in_i >= out_j + gs.safety_time_gap or in_j >= out_i + gs.safety_time_gap:
-                continue  # the plans keep the point clear
-            later_first = sorted(((in_i, ki, s_i), (in_j, kj, s_j)), key=lambda e: -e[0])
-            for _t_in, k, s_cp in later_first:
-                a = stopping_acceleration(float(world.s[k]), float(world.v[k]), s_cp - half - gs.safety_margin)
+                continue  # the plans keep the crossing clear
+            later_first = sorted(((in_i, ki, lat.zone_i[0]), (in_j, kj, lat.zone_j[0])), key=lambda e: -e[0])
+            for _t_in, k, enter in later_first:
+                a = stopping_acceleration(float(world.s[k]), float(world.v[k]), enter - gs.safety_margin)
                 if a is not None and a >= gs.a_min:
                     cap[ids[k]] = min(cap.get(ids[k], math.inf), a)
                     break
@@ -255,14 +325,7 @@ class GameController:
             if world.role[k] == "outside":
                 continue
             active.add(k)
-            plan = self.plans.get(vid)
-            if plan is not None:
-                for _ in range(self.shift):
-                    plan = shift_plan(plan)
-                plan = Plan.from_accelerations(float(world.s[k]), float(world.v[k]), plan.accelerations, plan.dt)
-            else:
-                a = np.full(self.gs.steps, -self.gs.comfort_brake)
-                plan = Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.gs.dt)
+            plan = self._kept_plan(world, k)
             self.plans[vid] = plan
             decisions.accel[vid] = max(float(plan.accelerations[0]), -float(world.v[k]) / period)
             self.controlled.add(vid)
@@ -280,12 +343,17 @@ class GameController:
         return rows
 
     def _build_rows(self, world: World, active: set[int]) -> _Rows:
+        """One row per exit lane a vehicle may still take; a vehicle farther than
+        ``lane_choice_range`` from its stop line has one row, its current exit lane."""
         vehicle, option, path = [], [], []
         for k in range(len(world)):
             pid = world.path_ids[k]
             opts = world.exit_choices.get(world.ids[k], ()) if k in active else ()
             if len(opts) > 1:
                 base = pid.rsplit("_", 1)[0]
+                if self.paths[pid].s_stop - float(world.s[k]) > self.gs.lane_choice_range:
+                    held = self.options.get(world.ids[k], self.paths[pid].exit_lane)
+                    opts = (held if held in opts else opts[0],)  # too far out to choose yet
                 for o in opts:
                     vehicle.append(k)
                     option.append(o)
@@ -297,20 +365,32 @@ class GameController:
         return _Rows(np.asarray(vehicle, dtype=np.intp), option, path)
 
     def _relations(self, world: World, rows: _Rows, active: set[int]):
-        """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM."""
+        """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM.
+
+        A lateral pair stays in the list until one of the two has cleared the crossing (its front
+        past ``zone_out`` of the conflict table, for confluence pairs the point plus a vehicle
+        length and half a width), so the safety filter guards it that long; it carries J_lat and
+        may play a game only while neither is more than ``conflict_clearance`` past the point.
+        """
         ms = self.model
+        table = self.table
         r = len(rows.vehicle)
         i, j = all_pairs(r)
         keep = rows.vehicle[i] != rows.vehicle[j]
         i, j = i[keep], j[keep]
         k_of = rows.vehicle
-        risk = event_trigger(self.table, self.table.indices(rows.path), world.s[k_of], world.v[k_of],
-                             world.kappa[k_of], ms, pairs=(i, j))
+        pidx = table.indices(rows.path)
+        risk = event_trigger(table, pidx, world.s[k_of], world.v[k_of], world.kappa[k_of], ms, pairs=(i, j))
         leaders: dict[int, _Leader] = {}  # row -> nearest leader
-        lateral: list[tuple[int, int, str, float, float, bool]] = []
-        d_i = risk.s_cp_i - world.s[k_of[risk.i]]
-        d_j = risk.s_cp_j - world.s[k_of[risk.j]]
+        lateral: list[_Lateral] = []
+        s_i_now, s_j_now = world.s[k_of[risk.i]], world.s[k_of[risk.j]]
+        d_i = risk.s_cp_i - s_i_now
+        d_j = risk.s_cp_j - s_j_now
+        p_i, p_j = pidx[risk.i], pidx[risk.j]
+        zin_i, zout_i = table.zone_in[p_i, p_j], table.zone_out[p_i, p_j]
+        zin_j, zout_j = table.zone_in[p_j, p_i], table.zone_out[p_j, p_i]
         clear = ms.conflict_clearance
+        half, length = ms.vehicle_width / 2, ms.vehicle_length
         for m in range(len(risk.i)):
             ri, rj = int(risk.i[m]), int(risk.j[m])
             if risk.leader_follower[m]:
@@ -328,19 +408,29 @@ class GameController:
                 continue
             if k_of[ri] not in active or k_of[rj] not in active:
                 continue
-            if d_i[m] < -clear or d_j[m] < -clear:
-                continue  # one of them has passed the point: no lateral cost any more
-            play = bool(risk.trigger[m]) or not self.etm
-            kind = "cross" if risk.kind[m] == KIND_CROSS else "confluence"
-            lateral.append((ri, rj, kind, float(risk.s_cp_i[m]), float(risk.s_cp_j[m]), play))
+            s_i, s_j = float(risk.s_cp_i[m]), float(risk.s_cp_j[m])
+            if risk.kind[m] == KIND_CROSS:
+                kind = "cross"
+                zone_i, zone_j = (float(zin_i[m]), float(zout_i[m])), (float(zin_j[m]), float(zout_j[m]))
+            else:
+                kind = "confluence"
+                zone_i, zone_j = (s_i - half, s_i + half + length), (s_j - half, s_j + half + length)
+            if s_i_now[m] > zone_i[1] or s_j_now[m] > zone_j[1]:
+                continue  # one of them has cleared the crossing
+            live = not (d_i[m] < -clear or d_j[m] < -clear)
+            play = live and (bool(risk.trigger[m]) or not self.etm)
+            lateral.append(_Lateral(ri, rj, kind, s_i, s_j, live, play, zone_i, zone_j))
         return leaders, lateral
 
     def _games(self, rows: _Rows, lateral) -> dict[tuple[int, int], _Game]:
         """Vehicle pairs that play a game, with the interactions of each exit-lane combination."""
         games: dict[tuple[int, int], _Game] = {}
-        triggered = {tuple(sorted((int(rows.vehicle[ri]), int(rows.vehicle[rj]))))
-                     for ri, rj, _, _, _, play in lateral if play}
-        for ri, rj, kind, s_i, s_j, _ in lateral:
+        triggered = {tuple(sorted((int(rows.vehicle[lat.ri]), int(rows.vehicle[lat.rj]))))
+                     for lat in lateral if lat.play}
+        for lat in lateral:
+            if not lat.live:
+                continue
+            ri, rj, kind, s_i, s_j = lat.ri, lat.rj, lat.kind, lat.s_i, lat.s_j
             ka, kb = int(rows.vehicle[ri]), int(rows.vehicle[rj])
             if ka > kb:
                 ka, kb, ri, rj, s_i, s_j = kb, ka, rj, ri, s_j, s_i
@@ -366,11 +456,16 @@ class GameController:
         the same vehicles whichever exit lane they take), only the preferred one is solved: the
         previous step's choice, else the movement's default lane. This keeps the lane-choice
         matrix game for the decisions it is for, at one continuous solve otherwise.
+
+        Where the choice matters it is decided every ``lane_choice_period`` control steps (the
+        discrete decision at a slower rate than the continuous one, as in multi-rate MPC); in
+        between the vehicle holds its last choice and only that combination is solved, warm.
         """
         partners: dict[int, set] = {r: set() for r in range(len(rows.vehicle))}
-        for ri, rj, *_ in lateral:
-            partners[ri].add(int(rows.vehicle[rj]))
-            partners[rj].add(int(rows.vehicle[ri]))
+        for lat in lateral:
+            if lat.live:
+                partners[lat.ri].add(int(rows.vehicle[lat.rj]))
+                partners[lat.rj].add(int(rows.vehicle[lat.ri]))
         sig: dict[int, dict[str, tuple]] = {}
         for r, k in enumerate(rows.vehicle):
             lead = leaders.get(r)
@@ -379,10 +474,18 @@ class GameController:
         out = {}
         for k, by_option in sig.items():
             opts = tuple(by_option)
+            vid = world.ids[k]
+            previous = self.options.get(vid)
             if len(opts) > 1 and len(set(by_option.values())) == 1:
                 path = self.paths[world.path_ids[k]]
-                previous = self.options.get(world.ids[k])
                 opts = (previous if previous in by_option else LANE_USE[path.lane][path.movement][0],)
+            elif len(opts) > 1:
+                age = self._choice_age.get(vid)
+                if age is not None and age + 1 < self.gs.lane_choice_period and previous in by_option:
+                    opts = (previous,)  # hold the last choice between decisions
+                    self._choice_age[vid] = age + 1
+                else:
+                    self._choice_age[vid] = 0
             out[k] = opts
         return out
 
@@ -440,72 +543,103 @@ class GameController:
         if len(problems) == 1:
             (combo, problem), = problems.items()
             result = self.solver(problem, self.gs, self.model, warm_start=warm.get(combo), **kwargs)
-            choice = combo
+            choice, results = combo, {combo: result}
         else:
             lc = lane_choice_game(problems, [self._lane_costs(world, ka), self._lane_costs(world, kb)],
                                   solver=self.solver, settings=self.gs, model_settings=self.model,
                                   warm_starts=warm, **kwargs)
-            result, choice = lc.result, lc.choice
-        if result.status != "solver failure":
-            self.warm[("game", world.ids[ka], world.ids[kb], *choice)] = result.plans
-        else:
+            result, choice, results = lc.result, lc.choice, lc.results
+        for combo, res in results.items():  # every combination warm-starts its own next solve
+            if res.status != "solver failure":
+                self.warm[("game", world.ids[ka], world.ids[kb], *combo)] = res.plans
+        if result.status == "solver failure":
             log.warning("t=%.2f s: %s game %s-%s: solver failure (%s); braking comfortably",
                         world.time, self.equilibrium, world.ids[ka], world.ids[kb], result.message)
         return result, choice
 
-    def _alone(self, world: World, k: int, leaders) -> tuple[Plan, str]:
-        """Best response of a vehicle in no game (k_lat = 0), with its exit-lane choice."""
+    def _alone(self, world: World, k: int, leaders, cutoff: float = math.inf,
+               decisions: Decisions | None = None) -> tuple[Plan, str]:
+        """Best response of a vehicle in no game (k_lat = 0), with its exit-lane choice; past
+        ``cutoff`` (perf_counter) a vehicle with a plan keeps it, shifted (counted as deferred)."""
         rows_of = self._rows_of
         vid = world.ids[k]
         opts = self._options(world, k)
-        free = len(opts) == 1 and rows_of[(k, opts[0])] not in leaders
-        if free and self._reuse_free_plan(world, k, opts[0]):
+        players = {o: self._player(world, k, o, leaders, rows_of) for o in opts}
+        if len(opts) == 1 and self._reuse_solo_plan(world, k, opts[0], players[opts[0]]):
             return self.plans[vid], opts[0]
-        self._free_age[vid] = 0
+        if vid in self.plans and time.perf_counter() + 2.0 * self._solo_s > cutoff:
+            if decisions is not None:
+                decisions.deferred += 1
+            self._solo_s *= 0.95
+            self._solo_inputs.pop(vid, None)
+            return self._kept_plan(world, k), self._held_option(world, k)
+        t0 = time.perf_counter()
         problems, warm = {}, {}
         for o in opts:
-            problems[(o,)] = Problem((self._player(world, k, o, leaders, rows_of),), ())
+            problems[(o,)] = Problem((players[o],), ())
             if ("solo", vid, o) in self.warm:
                 warm[(o,)] = self._shifted(self.warm[("solo", vid, o)])
         if len(problems) == 1:
             (combo, problem), = problems.items()
             result = nash_equilibrium(problem, self.gs, self.model, warm_start=warm.get(combo))
-            choice = combo
+            choice, results = combo, {combo: result}
         else:
             lc = lane_choice_game(problems, [self._lane_costs(world, k)], solver=nash_equilibrium,
                                   settings=self.gs, model_settings=self.model, warm_starts=warm)
-            result, choice = lc.result, lc.choice
+            result, choice, results = lc.result, lc.choice, lc.results
+        for combo, res in results.items():
+            if res.status != "solver failure":
+                self.warm[("solo", vid, combo[0])] = res.plans
+        self._solo_s = 0.8 * self._solo_s + 0.2 * (time.perf_counter() - t0)
         plan = result.plans[0]
         if result.status == "solver failure":
             log.warning("t=%.2f s: best response of %s failed (%s); braking comfortably",
                         world.time, vid, result.message)
             plan = safe_plan(problems[choice].players[0], self.gs)
+            self._solo_inputs.pop(vid, None)
         else:
-            self.warm[("solo", vid, choice[0])] = result.plans
+            self._solo_inputs[vid] = (0, choice[0], problems[choice].players[0].leader)
         return plan, choice[0]
 
-    def _reuse_free_plan(self, world: World, k: int, option: str) -> bool:
-        """Reuse a free vehicle's last plan, shifted, instead of solving again.
+    def _reuse_solo_plan(self, world: World, k: int, option: str, player: Player) -> bool:
+        """Reuse a solo vehicle's last plan, shifted, instead of solving again (event-triggered
+        re-planning, in the spirit of the paper's ETM).
 
-        A vehicle with no game, no leader and no exit choice minimises J_e plus the comfort
-        terms: a convex problem that is the same at every step but for its start state. The last
-        optimal plan shifted by one period is then optimal again for all but its appended last
-        step, so it is re-solved only every ``free_resolve_steps`` steps (1 = always), or when
-        the shifted plan would leave the speed limits or drift from the measured speed.
+        A vehicle in no game minimises its own cost (J_e, comfort, and J_log against its leader's
+        predicted trajectory). If its measured state is where its last plan put it and the
+        leader's prediction is the one it answered at its last solve (shifted: the same
+        trajectory seen later; within ``solo_leader_tol``), the problem is that solve's problem
+        moved on in time, and the shifted optimal plan is optimal again for all but its appended
+        last steps. So it is solved again only when an input changed, after
+        ``free_resolve_steps`` steps at the latest (1 = always), or when the shifted plan would
+        leave the speed limits. A free vehicle (no leader) is the special case with nothing to
+        compare. The safety filter checks reused plans like fresh ones.
         """
         vid = world.ids[k]
-        age = self._free_age.get(vid)
+        last = self._solo_inputs.get(vid)
         plan = self.plans.get(vid)
-        if (age is None or plan is None or age + 1 >= self.gs.free_resolve_steps
-                or self.options.get(vid) != option):
+        if last is None or plan is None:
+            return False
+        age, last_option, last_leader = last
+        if (age + 1 >= self.gs.free_resolve_steps or last_option != option
+                or self.options.get(vid) != option or (last_leader is None) != (player.leader is None)):
             return False
         for _ in range(self.shift):
             plan = shift_plan(plan)
         v = float(world.v[k])
         if abs(plan.speeds[0] - v) > 0.05 or plan.speeds.max() > self.model.v_max + 1e-6:
             return False
+        if player.leader is not None:
+            lag = (age + 1) * self.shift  # [steps] since the solve
+            s_then, v_then = last_leader
+            s_now, v_now = player.leader
+            m = len(s_now) - lag
+            tol = self.gs.solo_leader_tol
+            if (m <= 0 or np.abs(s_now[:m] - s_then[lag:]).max() > tol
+                    or np.abs(v_now[:m] - v_then[lag:]).max() > tol):
+                return False
         self.plans[vid] = Plan.from_accelerations(float(world.s[k]), v, plan.accelerations, plan.dt)
-        self._free_age[vid] = age + 1
+        self._solo_inputs[vid] = (age + 1, option, last_leader)
         return True
 
     def _shifted(self, plans: tuple[Plan, ...]) -> tuple[Plan, ...]:

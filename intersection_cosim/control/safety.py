@@ -7,12 +7,15 @@ itself never lets that happen to its own vehicles (its safe-speed and right-of-w
 the controller switches off). This filter is the controller's equivalent, applied after the
 games; it only ever *lowers* an acceleration, and only when the plans of this step would collide:
 
-* **Conflict points.** For each cross / confluence pair, each vehicle's planned occupancy of the
-  point is the interval from its front reaching ``s_cp - W/2`` to its rear leaving ``s_cp + W/2``
-  (W vehicle width). If the two intervals come closer than ``safety_time_gap``, the vehicle that
-  would enter later yields: it brakes so that it can stop ``safety_margin`` before the point
+* **Crossings.** For each cross / confluence pair, each vehicle's planned occupancy of the
+  crossing is the interval from its front reaching the zone's start to its front passing the
+  zone's end. For cross pairs the zone is the conflict table's body-overlap stretch
+  (``zone_in``, ``zone_out``: where the body overlaps the area the other's bodies sweep); for
+  confluence pairs it is ``s_cp - W/2`` to ``s_cp + W/2 + L`` (after the merge the pair is a
+  following pair). If the two intervals come closer than ``safety_time_gap``, the vehicle that
+  would enter later yields: it brakes so that it can stop ``safety_margin`` before its zone
   (a = -v^2 / 2d, at most |a_min|). If it can no longer stop, it is committed and the other one
-  yields instead, if it can.
+  yields instead, if it can. A pair is guarded until one of the two has left its zone.
 * **Leaders.** A follower's acceleration is capped by the safe speed of Krauss' car-following
   model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + v_L^2 + 2 b (gap - margin)), with
   b = |a_min| and tau = the control period, so it can always stop behind a leader that brakes as
@@ -28,12 +31,13 @@ import numpy as np
 from intersection_cosim.games.problem import Plan
 
 
-def occupancy(plan: Plan, s_cp: float, width: float, length: float) -> tuple[float, float]:
-    """[s] (enter, leave): when the planned front reaches ``s_cp - width/2`` and the rear leaves
-    ``s_cp + width/2``; ``inf`` where that is beyond the plan's horizon."""
+def occupancy(plan: Plan, enter: float, leave: float) -> tuple[float, float]:
+    """[s] (enter, leave): when the planned front reaches arc length ``enter`` and when it passes
+    ``leave`` [m] (a crossing's zone of the conflict table); ``inf`` where that is beyond the
+    plan's horizon, 0 where it is already there."""
     t = np.arange(len(plan.positions)) * plan.dt
     pos = plan.positions
-    return _first_reach(t, pos, s_cp - width / 2), _first_reach(t, pos, s_cp + width / 2 + length)
+    return _first_reach(t, pos, enter), _first_reach(t, pos, leave)
 
 
 def _first_reach(t: np.ndarray, pos: np.ndarray, target: float) -> float:

@@ -40,7 +40,8 @@ DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
-           "compute_ms_median", "compute_ms_p95", "control_steps", "deadline_misses", "deadline_miss_share"]
+           "compute_ms_median", "compute_ms_p95", "control_steps", "deadline_misses", "deadline_miss_share",
+           "deferred_step_share"]
 # Metrics that get a figure against demand, with axis labels.
 FIGURE_METRICS = {
     "travel_time_mean": "travel time, mean [s]",
@@ -72,7 +73,7 @@ class CompareOutcome:
 
 
 def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLERS, seeds: str = "1-5",
-               duration: float | None = None) -> list[SweepSpec]:
+               duration: float | None = None, budget_ms: float | None = None) -> list[SweepSpec]:
     """One sweep spec per scenario; every input checked (InputError) before any run starts."""
     if not scenarios:
         raise InputError("compare", "scenario", "", "give at least one scenario file")
@@ -80,7 +81,7 @@ def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLE
         parse_controllers(controllers)
     except InputError as exc:
         raise InputError("--controllers", "controllers", controllers, exc.problem) from None
-    overrides = {"duration": duration} if duration is not None else None
+    overrides = {k: v for k, v in (("duration", duration), ("budget_ms", budget_ms)) if v is not None}
     specs = [make_spec(s, None, controllers, seeds, overrides) for s in scenarios]
     names = [s.scenario_name for s in specs]
     for name in names:
@@ -164,6 +165,9 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "compute_ms_median": _quantile(cms, 0.5), "compute_ms_p95": _quantile(cms, 0.95),
             "control_steps": len(st), "deadline_misses": misses,
             "deadline_miss_share": misses / len(st) if len(st) else math.nan,
+            # steps in which the game controllers' anytime step left games / solo solves out
+            "deferred_step_share": (float(st["deferred"].gt(0).mean())
+                                    if len(st) and "deferred" in st else math.nan),
         })
     return rows
 

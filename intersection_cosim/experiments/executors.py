@@ -77,8 +77,10 @@ class Job:
         return (Path(self.run_dir) / RUN_MARKER).is_file()
 
 
-# [scenario] fields a sweep may override for all its runs (e.g. ``compare --duration``).
-SCENARIO_OVERRIDES = ("duration",)
+# Fields a sweep may override for all its runs (``compare --duration``, ``--budget-ms``), with
+# the scenario-file table each belongs to.
+OVERRIDE_TABLES = {"duration": "scenario", "budget_ms": "controller"}
+SCENARIO_OVERRIDES = tuple(OVERRIDE_TABLES)
 
 
 def job_scenario(job: Job):
@@ -89,8 +91,9 @@ def job_scenario(job: Job):
 
     scn = scenario_from_dict(tomllib.loads(job.scenario_text), job.scenario)
     scn = with_overrides(scn, controller=job.controller, seed=job.seed)
-    if job.overrides:
-        scn = dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, **dict(job.overrides)))
+    for name, value in job.overrides:
+        table = OVERRIDE_TABLES[name]
+        scn = dataclasses.replace(scn, **{table: dataclasses.replace(getattr(scn, table), **{name: value})})
     kappa = dict(job.kappa)
     vehicles = tuple(dataclasses.replace(v, kappa=kappa[v.id]) if v.id in kappa else v for v in scn.vehicles)
     return dataclasses.replace(scn, vehicles=vehicles)

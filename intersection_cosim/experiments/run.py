@@ -38,7 +38,7 @@ log = logging.getLogger(__name__)
 TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
                       "accel_cmd"]
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
-STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback"]
+STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred"]
 RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
 
 
@@ -195,6 +195,7 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                    "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
                    "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),
                    "fallbacks": int(steps["fallback"].sum()),
+                   "steps_with_deferred_work": int(steps["deferred"].gt(0).sum()),
                    "safety_interventions": getattr(controller, "filtered", None)},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),

@@ -172,7 +172,7 @@ class SweepSpec:
     controllers: tuple[str, ...]
     seeds: tuple[int, ...]
     scenario_text: str = dataclasses.field(default="", compare=False, repr=False)  # what the runs run
-    overrides: tuple[tuple[str, float], ...] = ()  # [scenario] field overrides of every run (executors.py)
+    overrides: tuple[tuple[str, float], ...] = ()  # [scenario] / [controller] field overrides of every run (executors.py)
 
     @property
     def axes(self) -> list[str]:
@@ -227,8 +227,8 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
               seeds: str | None = None, overrides: dict[str, float] | None = None) -> SweepSpec:
     """Validate the command line's sweep spec against the scenario; raise InputError before any run.
 
-    ``overrides``: [scenario] fields set for every run (``executors.SCENARIO_OVERRIDES``), e.g.
-    ``{"duration": 60.0}``; part of the sweep's identity.
+    ``overrides``: [scenario] / [controller] fields set for every run (``executors.SCENARIO_OVERRIDES``), e.g.
+    ``{"duration": 60.0, "budget_ms": 20.0}``; part of the sweep's identity.
     """
     from intersection_cosim.experiments.executors import SCENARIO_OVERRIDES
 

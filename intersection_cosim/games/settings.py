@@ -77,8 +77,18 @@ class GameSettings:
     #                                  Hessian differs from it by less than this (relative)
 
     # --- closed-loop controller ---
-    free_resolve_steps: int = 5  # [-] control steps between solves of a vehicle with no game and
-    #                              no leader (its convex problem only shifts; control/game.py)
+    free_resolve_steps: int = 5  # [-] most control steps between solves of a vehicle in no game
+    #                              whose inputs did not change (control/game.py, _reuse_solo_plan)
+    lane_choice_range: float = 30.0  # [m] a vehicle chooses among its exit lanes only within this
+    #                                  distance of its stop line (v_max * t_p: what the horizon
+    #                                  reaches); farther out it keeps its current exit lane
+    anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
+    #                              and solo solves that would not finish before the rest of the
+    #                              budget are deferred (their vehicles keep their last plan, shifted)
+    lane_choice_period: int = 5  # [-] control steps between a vehicle's exit-lane decisions (it
+    #                              holds its choice in between; 1 = decide every step)
+    solo_leader_tol: float = 0.1  # [m] and [m/s]: a solo vehicle solves again when its leader's
+    #                               predicted positions (speeds) moved more than this since its solve
 
     # --- safety filter of the closed-loop controller (not in the paper; control/safety.py) ---
     safety_filter: bool = True  # [-] check every applied acceleration against collision
@@ -91,18 +101,21 @@ class GameSettings:
         return int(round(self.horizon / self.dt))
 
     def check(self) -> list[tuple[str, str]]:
-        problems = positive(self, "free_resolve_steps", "horizon", "dt", "a_max", "comfort_brake", "nash_tol",
+        problems = positive(self, "free_resolve_steps", "lane_choice_period", "horizon", "dt", "a_max", "comfort_brake", "nash_tol",
                             "nash_max_iter", "sqp_steps_per_iteration", "stackelberg_tol",
                             "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
                             "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",
                             "gap_floor", "osqp_eps_abs", "osqp_max_iter",
                             "osqp_check_termination")
-        problems += non_negative(self, "safety_time_gap", "safety_margin")
+        problems += non_negative(self, "safety_time_gap", "safety_margin", "solo_leader_tol",
+                                  "lane_choice_range", "anytime_reserve")
         problems += non_negative(self, "w_accel", "w_jerk", "active_set_max_updates",
                                  "active_tol", "line_search_steps", "armijo",
                                  "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol",
                                  "hessian_refresh", "nash_cost_rtol", "nash_cost_guard",
                                  "stackelberg_gain_rtol")
+        if not self.anytime_reserve < 1:
+            problems.append(("anytime_reserve", "must be < 1"))
         if not self.a_min < 0:
             problems.append(("a_min", "must be < 0"))
         if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:

@@ -27,6 +27,7 @@ class StepRecord:
     iterations: int  # equilibrium iterations, summed over games
     deadline_missed: bool  # compute_ms exceeded the budget
     fallback: bool  # the applied decisions are the fallback
+    deferred: int = 0  # games / solo solves the controller left out to meet the budget
 
 
 class StepScheduler:
@@ -57,10 +58,11 @@ class StepScheduler:
             decisions.fallback = True
             if played is not None:
                 decisions.games, decisions.iterations = played.games, played.iterations
+                decisions.deferred = played.deferred
                 decisions.pairs = played.pairs
         record = StepRecord(time=world.time, compute_ms=elapsed * 1e3, games=decisions.games,
                             iterations=decisions.iterations, deadline_missed=missed,
-                            fallback=decisions.fallback)
+                            fallback=decisions.fallback, deferred=decisions.deferred)
         return decisions, record
 
     def pace(self, sim_time: float) -> None:

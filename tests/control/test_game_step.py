@@ -1,0 +1,110 @@
+"""The game controller's step: crossings guarded until cleared, the anytime step, solo re-planning."""
+
+import time
+
+import numpy as np
+import pytest
+
+from intersection_cosim.control import game as game_module
+from intersection_cosim.control.base import ControlContext, World
+from intersection_cosim.control.game import GameController
+from intersection_cosim.games.problem import Plan
+from intersection_cosim.models.settings import ModelSettings
+
+LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
+STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
+
+
+def _world(paths, t, vehicles):
+    """vehicles: (id, path id, s [m], v [m/s])."""
+    ids = [v[0] for v in vehicles]
+    pids = [v[1] for v in vehicles]
+    s = np.array([v[2] for v in vehicles], float)
+    xy = np.array([paths[p].point_at(si) for p, si in zip(pids, s)])
+    n = len(ids)
+    return World(time=t, ids=ids, path_ids=pids, s=s, v=np.array([v[3] for v in vehicles], float),
+                 a=np.zeros(n), x=xy[:, 0], y=xy[:, 1], heading=np.zeros(n), kappa=np.full(n, 0.5),
+                 role=["ready"] * n, lanes=[paths[p].lanes[0] for p in pids],
+                 exit_choices={i: (paths[p].exit_lane,) for i, p in zip(ids, pids)})
+
+
+@pytest.fixture
+def controller(paths, net_file):
+    c = GameController("nash")
+    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
+                           solver=None, etm=True))
+    return c
+
+
+def test_a_crossing_is_guarded_until_the_turning_body_has_cleared_it(controller, paths):
+    """The crossing whose zone reaches farthest past its point: the first vehicle stands
+    0.5 m past conflict_clearance (4.5 m), so no game any more, but its body still covers the
+    other's lane for a few metres. The second, planning to drive on at 8 m/s and 1.5 s from the
+    zone, must be braked by the safety filter to stop before it."""
+    t = controller.table
+    past = np.where(t.kind == 2, t.zone_out - t.s_a, -np.inf)
+    p, q = np.unravel_index(int(np.argmax(past)), past.shape)
+    first, second = t.ids[p], t.ids[q]
+    s_first = t.s_a[p, q] + controller.model.conflict_clearance + 0.5
+    assert t.zone_out[p, q] - s_first > 2.5  # [m] still to go before its body is out
+    s_second = t.zone_in[q, p] - 12.0
+    world = _world(paths, 0.0, [("A", first, s_first, 0.0), ("B", second, s_second, 8.0)])
+    world.role[0] = "passing"
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    assert d.games == 0
+    margin = controller.gs.safety_margin
+    assert d.accel["B"] == pytest.approx(-8.0 ** 2 / (2 * (12.0 - margin)), rel=1e-6)  # -2.9 m/s^2
+
+
+def test_without_time_left_games_are_deferred_and_the_last_plans_kept(controller, paths):
+    t = controller.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    world = _world(paths, 1.0, [("L", LEFT, t.s_a[p, q] - 16.0, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 17.0, 8.0)])
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    assert d.games == 1 and d.deferred == 0
+    planned = {v: controller.plans[v] for v in ("L", "S")}
+    # next period, moved as planned, but the deadline has already passed: nothing is solved
+    s_next = [float(planned[v].positions[1]) for v in ("L", "S")]
+    v_next = [float(planned[v].speeds[1]) for v in ("L", "S")]
+    world = _world(paths, 1.1, [("L", LEFT, s_next[0], v_next[0]), ("S", STRAIGHT, s_next[1], v_next[1])])
+    filtered = controller.filtered
+    d = controller.decide(world, time.perf_counter() - 1.0)
+    assert d.games == 0 and d.deferred == 1
+    for v in ("L", "S"):
+        kept = float(planned[v].accelerations[1])  # the plan shifted by one period
+        assert d.accel[v] <= kept + 1e-12
+    assert controller.filtered > filtered or all(
+        d.accel[v] == pytest.approx(float(planned[v].accelerations[1])) for v in ("L", "S"))
+
+
+def test_a_solo_follower_solves_again_only_when_its_leader_prediction_moves(controller, paths, monkeypatch):
+    calls = []
+    real = game_module.nash_equilibrium
+
+    def counting(problem, *a, **k):
+        calls.append(problem.players[0].name)
+        return real(problem, *a, **k)
+
+    monkeypatch.setattr(game_module, "nash_equilibrium", counting)
+    path = "south_middle_straight_middle"
+    s_stop = paths[path].s_stop
+
+    def world_at(t, s_lead, v_lead, s_follow, v_follow):
+        return _world(paths, t, [("lead", path, s_lead, v_lead), ("follow", path, s_follow, v_follow)])
+
+    d = controller.decide(world_at(0.0, s_stop - 60.0, 8.0, s_stop - 80.0, 8.0), time.perf_counter() + 10.0)
+    assert d.games == 0 and calls.count("follow") == 1
+    # both moved exactly as planned: the follower's problem is the same one, later -> reused
+    plans = dict(controller.plans)
+    lead, follow = plans["lead"], plans["follow"]
+    w = world_at(0.1, float(lead.positions[1]), float(lead.speeds[1]),
+                 float(follow.positions[1]), float(follow.speeds[1]))
+    controller.decide(w, time.perf_counter() + 10.0)
+    assert calls.count("follow") == 1
+    # the leader is suddenly 2 m/s slower than its plan said: its prediction moved -> solve again
+    plans = dict(controller.plans)
+    lead, follow = plans["lead"], plans["follow"]
+    w = world_at(0.2, float(lead.positions[1]), float(lead.speeds[1]) - 2.0,
+                 float(follow.positions[1]), float(follow.speeds[1]))
+    controller.decide(w, time.perf_counter() + 10.0)
+    assert calls.count("follow") == 2
