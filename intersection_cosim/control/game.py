@@ -19,7 +19,9 @@ Every control period, for the vehicles that are ready to enter or passing the co
    resulting matrix game is taken (:func:`~intersection_cosim.games.lane_choice.lane_choice_game`);
    leaving the preferred exit lane costs J_lk (Eq. 23).
 4. **Alone.** A vehicle in no game optimises its own cost with k_lat = 0 (its J_log and J_e only),
-   choosing its exit lane the same way among its own options.
+   choosing its exit lane the same way among its own options. It re-plans only when an input of
+   that problem moved (``_reuse_solo_plan``: event-triggered, like the ETM), else keeps its last
+   plan shifted, which answers the same problem seen one period later.
 5. **Several games, one vehicle** (rule): the vehicle applies the plan of the game whose first
    acceleration is the lowest, and takes that game's exit lane. Why this is safe: every game's
    plan for the vehicle keeps the safety cost of *that* pair low given the partner's equilibrium
@@ -29,6 +31,11 @@ Every control period, for the vehicles that are ready to enter or passing the co
    next control step (0.1 s later), when the pair's game is played again from the measured
    states. Braking harder than any single game asks is never needed: the lowest acceleration is
    one of the games' own plans, bounded by a_min.
+
+**Anytime step.** Games are played most urgent first (smaller TCP), then solo vehicles nearest
+their stop line; work that would not finish before the budget less ``anytime_reserve`` is
+deferred and its vehicles keep their last plan, shifted (``Decisions.deferred``). The safety
+filter (control/safety.py) then checks every acceleration, fresh or kept.
 
 Decisions are written back as accelerations (held over the period; the adapter turns them into
 exact speed commands) and exit lanes (enforced by the adapter when the vehicle enters the
@@ -46,7 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from intersection_cosim.control.base import ControlContext, Decisions, World
-from intersection_cosim.control.safety import krauss_safe_speed, occupancy, stopping_acceleration
+from intersection_cosim.control.safety import braking_plan, krauss_safe_speed, occupancy, stopping_acceleration
 from intersection_cosim.games.lane_choice import lane_change_cost, lane_choice_game
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.qp import reset_workspaces
@@ -269,7 +276,12 @@ class GameController:
         return self.options.get(world.ids[k], self.paths[world.path_ids[k]].exit_lane)
 
     def _safety_filter(self, world: World, rows: _Rows, leaders, lateral, decisions: Decisions) -> None:
-        """Lower accelerations whose plans would collide (control/safety.py)."""
+        """Lower accelerations whose plans would collide (control/safety.py).
+
+        Two passes: a vehicle braked in the first pass is checked again in the second with its
+        braking plan (constant capped deceleration to a stop), so a vehicle made to stop is seen
+        by every other crossing it now blocks in the same step.
+        """
         gs, ms = self.gs, self.model
         period = self.ctx.control_period
         ids, k_of = world.ids, rows.vehicle
@@ -282,28 +294,60 @@ class GameController:
             gap = lead.gap - ms.vehicle_length - gs.safety_margin  # [m] bumper to bumper, less margin
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -gs.a_min, period)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k_of[r]])) / period)
+        plans = dict(self.plans)
+        for _pass in range(2):
+            for vid, limit in cap.items():
+                if vid in plans and limit < float(plans[vid].accelerations[0]):
+                    plans[vid] = braking_plan(plans[vid], max(limit, gs.a_min))
+            self._guard_crossings(world, rows, lateral, chosen, plans, cap, period)
+        for vid, limit in cap.items():
+            if limit < decisions.accel[vid]:
+                decisions.accel[vid] = max(limit, gs.a_min)
+                self.filtered += 1
+
+    def _guard_crossings(self, world: World, rows: _Rows, lateral, chosen, plans, cap, period) -> None:
+        """Caps (into ``cap``) for every crossing the ``plans`` would share within
+        ``safety_time_gap``: the later one stops before its zone; if neither can any more (both
+        inside, or committed), the one whose plan leaves its zone later holds back as hard as it
+        may and the other clears the crossing (a deadlock of vehicles stopped in each other's
+        zones is broken in a fixed order, never by all of them moving at once). A vehicle still
+        before its stop line waits at the line when it can, not before a zone inside the
+        junction."""
+        gs = self.gs
+        ids, k_of = world.ids, rows.vehicle
         for lat in lateral:
             ri, rj = lat.ri, lat.rj
             if not (chosen[ri] and chosen[rj]):
                 continue
             ki, kj = int(k_of[ri]), int(k_of[rj])
-            pi, pj = self.plans.get(ids[ki]), self.plans.get(ids[kj])
+            pi, pj = plans.get(ids[ki]), plans.get(ids[kj])
             if pi is None or pj is None:
                 continue
             in_i, out_i = occupancy(pi, *lat.zone_i)
             in_j, out_j = occupancy(pj, *lat.zone_j)
             if in_i >= out_j + gs.safety_time_gap or in_j >= out_i + gs.safety_time_gap:
                 continue  # the plans keep the crossing clear
-            later_first = sorted(((in_i, ki, lat.zone_i[0]), (in_j, kj, lat.zone_j[0])), key=lambda e: -e[0])
-            for _t_in, k, enter in later_first:
-                a = stopping_acceleration(float(world.s[k]), float(world.v[k]), enter - gs.safety_margin)
+            later_first = sorted(((in_i, ki, lat.ri, lat.zone_i[0]), (in_j, kj, lat.rj, lat.zone_j[0])),
+                                 key=lambda e: -e[0])
+            for _t_in, k, r, enter in later_first:
+                s_k, v_k = float(world.s[k]), float(world.v[k])
+                # still before the junction: wait at the stop line, not inside it, where a vehicle
+                # stopped before one crossing can block another (AIM's rule: enter only to clear)
+                s_stop = float(self.table.s_stop[self._pidx[r]])
+                a = stopping_acceleration(s_k, v_k, s_stop - gs.safety_margin) if s_k < s_stop else None
+                if a is None or a < gs.a_min:
+                    a = stopping_acceleration(s_k, v_k, enter - gs.safety_margin)
                 if a is not None and a >= gs.a_min:
                     cap[ids[k]] = min(cap.get(ids[k], math.inf), a)
                     break
-        for vid, limit in cap.items():
-            if limit < decisions.accel[vid]:
-                decisions.accel[vid] = max(limit, gs.a_min)
-                self.filtered += 1
+            else:
+                # neither can stop before its zone: the one whose plan leaves it later holds back
+                # (ties: the one less far through its zone), the other clears the crossing
+                order = []
+                for k, (z_in, z_out), out in ((ki, lat.zone_i, out_i), (kj, lat.zone_j, out_j)):
+                    order.append((-out, (float(world.s[k]) - z_in) / max(z_out - z_in, 1e-9), ids[k], k))
+                _, _, vid, k = min(order)
+                cap[vid] = min(cap.get(vid, math.inf), max(gs.a_min, -float(world.v[k]) / period))
 
     def fallback(self, world: World) -> Decisions:
         """The last applied plan shifted by one period (comfortable braking where there is none),
@@ -380,6 +424,7 @@ class GameController:
         i, j = i[keep], j[keep]
         k_of = rows.vehicle
         pidx = table.indices(rows.path)
+        self._pidx = pidx
         risk = event_trigger(table, pidx, world.s[k_of], world.v[k_of], world.kappa[k_of], ms, pairs=(i, j))
         leaders: dict[int, _Leader] = {}  # row -> nearest leader
         lateral: list[_Lateral] = []
@@ -519,7 +564,13 @@ class GameController:
             s_l, v_l = self._leader_trajectory(world, leader)
             exo = (s_l + leader.offset, v_l)
         return Player(s0=float(world.s[k]), v0=float(world.v[k]), kappa=float(world.kappa[k]),
-                      name=world.ids[k], leader=exo)
+                      v_max=self._desired_speed(world, k), name=world.ids[k], leader=exo)
+
+    def _desired_speed(self, world: World, k: int) -> float | None:
+        """[m/s] vehicle k's own desired speed, None for the model's v_max."""
+        if world.desired_speed is None or not math.isfinite(float(world.desired_speed[k])):
+            return None
+        return float(world.desired_speed[k])
 
     def _play(self, world: World, game: _Game, leaders, deadline: float):
         ka, kb = game.a, game.b
@@ -627,7 +678,8 @@ class GameController:
         for _ in range(self.shift):
             plan = shift_plan(plan)
         v = float(world.v[k])
-        if abs(plan.speeds[0] - v) > 0.05 or plan.speeds.max() > self.model.v_max + 1e-6:
+        v_cap = player.v_max if player.v_max is not None else self.model.v_max  # [m/s]
+        if abs(plan.speeds[0] - v) > 0.05 or plan.speeds.max() > v_cap + 1e-6:
             return False
         if player.leader is not None:
             lag = (age + 1) * self.shift  # [steps] since the solve

@@ -15,7 +15,14 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   following pair). If the two intervals come closer than ``safety_time_gap``, the vehicle that
   would enter later yields: it brakes so that it can stop ``safety_margin`` before its zone
   (a = -v^2 / 2d, at most |a_min|). If it can no longer stop, it is committed and the other one
-  yields instead, if it can. A pair is guarded until one of the two has left its zone.
+  yields instead, if it can. A vehicle still before its stop line waits at the line when it
+  can (as in AIM, a vehicle enters only to clear: one stopped inside the junction before one
+  crossing may block another, and three such make a deadlock). If neither can stop (both
+  inside their zones, or committed), the one whose plan leaves its zone later holds back
+  (stops in place, or brakes as hard as it may) and the other clears the crossing: a deadlock of vehicles stopped in each other's zones is broken in
+  a fixed order instead of by all of them driving off at once. A pair is guarded until one of
+  the two has left its zone. Vehicles braked in a first pass are checked again with their
+  braking plan, so a vehicle made to stop is seen by the other crossings it now blocks.
 * **Leaders.** A follower's acceleration is capped by the safe speed of Krauss' car-following
   model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + v_L^2 + 2 b (gap - margin)), with
   b = |a_min| and tau = the control period, so it can always stop behind a leader that brakes as
@@ -56,6 +63,20 @@ def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:
     if d <= 0.0:
         return None
     return -v * v / (2.0 * d)
+
+
+def braking_plan(plan: Plan, accel: float) -> Plan:
+    """``plan`` from its start state with constant acceleration ``accel`` [m/s^2] (< 0) until it
+    stops, then standing: what a vehicle the filter brakes will do if nothing changes."""
+    v0 = float(plan.speeds[0])
+    n, dt = plan.steps, plan.dt
+    if accel >= 0.0:
+        a = np.full(n, float(accel))
+    else:
+        t_stop = v0 / -accel  # [s]
+        k = np.arange(n) * dt
+        a = accel * np.clip((t_stop - k) / dt, 0.0, 1.0)  # the last step ends exactly at v = 0
+    return Plan.from_accelerations(float(plan.positions[0]), v0, a, dt)
 
 
 def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float) -> float:

@@ -108,3 +108,42 @@ def test_a_solo_follower_solves_again_only_when_its_leader_prediction_moves(cont
                  float(follow.positions[1]), float(follow.speeds[1]))
     controller.decide(w, time.perf_counter() + 10.0)
     assert calls.count("follow") == 2
+
+
+def _deepest_crossing(t):
+    past = np.where(t.kind == 2, t.zone_out - t.s_a, -np.inf)
+    p, q = np.unravel_index(int(np.argmax(past)), past.shape)
+    return int(p), int(q)
+
+
+def test_a_vehicle_before_the_junction_waits_at_its_stop_line(controller, paths):
+    """The first vehicle stands in the crossing (it needs about 2.5 s to clear it from rest); the
+    second, 10 m before its stop line at 8 m/s, would arrive before that: it brakes to stop at
+    the line (less the margin), not at its zone inside the junction, where it could block
+    another crossing."""
+    t = controller.table
+    p, q = _deepest_crossing(t)
+    first, second = t.ids[p], t.ids[q]
+    s_stop = float(t.s_stop[q])
+    assert t.zone_in[q, p] > s_stop  # the zone lies inside the junction
+    world = _world(paths, 0.0, [("A", first, t.s_a[p, q], 0.0), ("B", second, s_stop - 10.0, 8.0)])
+    world.role[0] = "passing"
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    margin = controller.gs.safety_margin
+    assert d.accel["B"] == pytest.approx(-8.0 ** 2 / (2 * (10.0 - margin)), rel=1e-6)  # -3.6 m/s^2
+
+
+def test_two_vehicles_stopped_in_each_others_zones_do_not_drive_off_together(controller, paths):
+    """Both stand inside the crossing (neither can stop before it any more) and both plans drive
+    off: exactly one is held in place, the other clears the crossing."""
+    t = controller.table
+    p, q = _deepest_crossing(t)
+    a_path, b_path = t.ids[p], t.ids[q]
+    s_a = 0.5 * (t.zone_in[p, q] + t.s_a[p, q])
+    s_b = 0.5 * (t.zone_in[q, p] + t.s_a[q, p])
+    world = _world(paths, 0.0, [("A", a_path, s_a, 0.0), ("B", b_path, s_b, 0.0)])
+    world.role = ["passing", "passing"]
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    moving = sorted(v for v in ("A", "B") if d.accel[v] > 1e-9)
+    held = sorted(v for v in ("A", "B") if abs(d.accel[v]) <= 1e-9)
+    assert len(moving) == 1 and len(held) == 1, d.accel
