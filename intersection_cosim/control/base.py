@@ -33,6 +33,7 @@ class World:
     role: list[str]  # ready / passing / outside (the conflict zone)
     lanes: list[str] = field(default_factory=list)  # SUMO lane id of each vehicle
     exit_choices: dict[str, tuple[str, ...]] = field(default_factory=dict)  # vehicle -> exit lanes it may still take
+    desired_speed: np.ndarray | None = None  # [m/s] per vehicle (J_e, Eq. 24); NaN / None: ModelSettings.v_max
 
     def __len__(self) -> int:
         return len(self.ids)

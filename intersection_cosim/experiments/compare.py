@@ -13,7 +13,8 @@ Aggregation over the seeds of a (scenario, controller): travel time mean and 95t
 time loss mean over all arrived vehicles of all seeds; throughput = arrived vehicles per hour of
 the demand window (``[scenario] duration``, summed over the seeds); SSM min TTC / min PET over all
 encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``);
-collisions summed; compute time per control step median and 95th percentile over all steps, and
+collisions summed; ``late_or_stuck``: departed vehicles that had not arrived 60 s after the
+demand window closed (a deadlock or a queue that does not drain); compute time per control step median and 95th percentile over all steps, and
 the share of steps that missed their deadline.
 """
 
@@ -37,10 +38,12 @@ REPORT_FILE = "report.md"
 FIGURES_DIR = "figures"
 DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls"
 
+LATE_AFTER = 60.0  # [s] a departed vehicle not arrived by the demand window plus this is late or stuck
+
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
-           "compute_ms_median", "compute_ms_p95", "control_steps", "deadline_misses", "deadline_miss_share",
+           "late_or_stuck", "compute_ms_median", "compute_ms_p95", "control_steps", "deadline_misses", "deadline_miss_share",
            "deferred_step_share"]
 # Metrics that get a figure against demand, with axis labels.
 FIGURE_METRICS = {
@@ -130,7 +133,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         mine = [j for j in jobs if j.controller == controller and j.finished]
         veh, steps, ssm = [], [], []
         window = 0.0
-        vehicles = arrived = collisions = 0
+        vehicles = arrived = collisions = late = 0
         for job in mine:
             run = Path(job.run_dir)
             summary = json.loads((run / "summary.json").read_text())
@@ -140,7 +143,9 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             vehicles += int(counts.get("vehicles") or 0)
             arrived += int(counts.get("arrived") or 0)
             collisions += int(counts.get("collisions") or 0)
-            veh.append(pd.read_csv(run / "vehicles.csv", dtype={"vehicle": str}))
+            va = pd.read_csv(run / "vehicles.csv", dtype={"vehicle": str})
+            late += int((va["depart"].notna() & ~(va["arrival"] <= float(duration) + LATE_AFTER)).sum())
+            veh.append(va)
             steps.append(pd.read_csv(run / "steps.csv"))
             ssm.append(read_ssm(run / "ssm.xml"))
         v = pd.concat(veh) if veh else pd.DataFrame(columns=["arrival", "travel_time", "time_loss"])
@@ -162,6 +167,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss),
             "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
             "collisions": collisions if mine else math.nan,
+            "late_or_stuck": late if mine else math.nan,
             "compute_ms_median": _quantile(cms, 0.5), "compute_ms_p95": _quantile(cms, 0.95),
             "control_steps": len(st), "deadline_misses": misses,
             "deadline_miss_share": misses / len(st) if len(st) else math.nan,

@@ -120,7 +120,7 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         infos[v.id] = VehicleInfo(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
                                   intended_path=v.path_id, controlled=controller.controls_vehicles,
                                   exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
-                                  start_s=v.s0 if v.in_junction else None)
+                                  start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
     for fv in flow_vehicles:
         pid = f"{fv['approach']}_{fv['lane']}_{fv['movement']}_{default_exit_lane(fv['lane'], fv['movement'])}"
         infos[fv["id"]] = VehicleInfo(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],

@@ -30,7 +30,7 @@ from intersection_cosim.settings import from_table
 
 TOP_LEVEL = ("scenario", "controller", "model", "vehicle", "flow")
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
-                "kappa", "depart")
+                "kappa", "depart", "desired_speed")
 FLOW_KEYS = ("id", "approach", "movement", "rate", "kappa", "begin", "end", "lane", "speed", "distance")
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error
 
@@ -99,6 +99,13 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
     speed = _number(src, f"{field}.speed", table["speed"], minimum=0.0)
     kappa = _number(src, f"{field}.kappa", table["kappa"], minimum=0.0, maximum=1.0)
     depart = _number(src, f"{field}.depart", table.get("depart", 0.0), minimum=0.0)
+    desired = table.get("desired_speed")
+    if desired is not None:
+        desired = _number(src, f"{field}.desired_speed", desired, minimum=0.0)
+        if desired <= 0.0:
+            raise InputError(src, f"{field}.desired_speed", desired, "must be > 0")
+        if speed > desired:
+            raise InputError(src, f"{field}.speed", speed, f"must not exceed desired_speed ({desired:g} m/s)")
     exit_lane = table.get("exit_lane")
     if exit_lane is not None:
         _choice(src, f"{field}.exit_lane", exit_lane, LANES)
@@ -133,7 +140,8 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
     x, y = path.point_at(s0)
     return VehicleSpec(id=vid, approach=path.approach, lane=path.lane, movement=movement,
                        path_id=path.id, s0=s0, x=float(x), y=float(y), speed=speed, kappa=kappa,
-                       depart=depart, exit_lane=exit_lane, in_junction=bool(s0 > path.s_stop))
+                       depart=depart, exit_lane=exit_lane, in_junction=bool(s0 > path.s_stop),
+                       desired_speed=desired)
 
 
 def _kappa_distribution(src: str, field: str, value: Any) -> KappaDistribution:

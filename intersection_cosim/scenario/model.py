@@ -64,6 +64,7 @@ class VehicleSpec:
     depart: float = 0.0  # [s] insertion time
     exit_lane: str | None = None  # preferred exit lane (None: the movement's default)
     in_junction: bool = False  # starts on the junction-internal lane
+    desired_speed: float | None = None  # [m/s] its own desired / max speed (J_e, Eq. 24); None: model v_max
 
 
 @dataclass(frozen=True)

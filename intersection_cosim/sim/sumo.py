@@ -45,6 +45,7 @@ class VehicleInfo:
     exit_lane: str | None = None  # exit lane to enforce at the junction entry (None: SUMO's)
     exit_fixed: bool = False  # the scenario fixes the exit lane: the controller may not choose
     start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
+    desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
 
 
 @dataclass
@@ -83,6 +84,8 @@ class SumoSimulation:
             if info is None:
                 continue
             self.current_path[vid] = info.intended_path
+            if info.desired_speed is not None:
+                libsumo.vehicle.setMaxSpeed(vid, info.desired_speed)
             if info.controlled:
                 libsumo.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)
                 libsumo.vehicle.setLaneChangeMode(vid, LANE_CHANGE_MODE_CONTROLLED)
@@ -169,7 +172,7 @@ class SumoSimulation:
         ids = sorted(self.states)
         n = len(ids)
         s = np.empty(n)
-        arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa")}
+        arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
         path_ids, roles, lanes = [], [], []
         exit_choices: dict[str, tuple[str, ...]] = {}
         for i, vid in enumerate(ids):
@@ -185,6 +188,7 @@ class SumoSimulation:
             arr["heading"][i] = math.radians(90.0 - st[libsumo.VAR_ANGLE])
             info = self.vehicles.get(vid)
             arr["kappa"][i] = info.kappa if info else 0.5
+            arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
             path_ids.append(pid)
             lanes.append(lane)
             if info is not None and "_in_" in lane and not info.exit_fixed:
@@ -194,7 +198,7 @@ class SumoSimulation:
             roles.append("passing" if lane.startswith(":") else ("ready" if "_in_" in lane else "outside"))
         return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
-                     lanes=lanes, exit_choices=exit_choices)
+                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"])
 
     # --- write -----------------------------------------------------------------------------
     def command(self, decisions: Decisions) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pandas as pd
@@ -49,15 +50,15 @@ def test_markdown_table():
 @pytest.mark.slow
 def test_compare_low_demand_and_rerun(tmp_path, capsys):
     out = tmp_path / "cmp"
-    argv = ["compare", LOW, "--duration", "60", "--controllers", "fcfs,sumo-priority", "--seeds", "1",
-            "--out", str(out), "--workers", "2", "--no-progress"]
+    argv = ["compare", LOW, "--duration", "60", "--budget-ms", "20", "--controllers", "fcfs,sumo-priority",
+            "--seeds", "1", "--out", str(out), "--workers", "2", "--no-progress"]
     assert main(argv) == 0
     table = pd.read_csv(out / "comparison.csv")
     assert list(table.columns) == COLUMNS
     assert list(table["controller"]) == ["fcfs", "sumo-priority"]
     assert (table["runs_ok"] == 1).all()
     assert (table["throughput_veh_h"] > 0).all()
-    assert (table["collisions"] == 0).all()
+    assert (table["collisions"] == 0).all() and (table["late_or_stuck"] == 0).all()
     assert table["demand_veh_h"].tolist() == pytest.approx([600.0, 600.0])
     assert table["travel_time_mean"].notna().all() and table["compute_ms_median"].notna().all()
     for metric in FIGURE_METRICS:
@@ -66,6 +67,8 @@ def test_compare_low_demand_and_rerun(tmp_path, capsys):
     assert "| demand_balanced_low | 600 | fcfs |" in report
     summary = out / "demand_balanced_low" / "runs" / "fcfs-seed1" / "summary.json"
     mtime = summary.stat().st_mtime_ns
+    settings = json.loads(summary.read_text())["settings"]
+    assert settings["controller"]["budget_ms"] == 20.0 and settings["scenario"]["duration"] == 60.0
     capsys.readouterr()
 
     assert main(argv) == 0  # rerun: both runs skipped, table rebuilt

@@ -42,6 +42,10 @@ CASES = [
     ("too close on one lane", HEADER + GOOD_VEHICLE + GOOD_VEHICLE.replace('"V1"', '"V2"').replace("13.0", "16.0"),
      "vehicle[V2].position", "["),
     ("negative speed", HEADER + GOOD_VEHICLE.replace("speed = 5.5", "speed = -1.0"), "vehicle[V1].speed", "-1.0"),
+    ("zero desired speed", HEADER + GOOD_VEHICLE.replace("speed = 5.5", "speed = 0.0\ndesired_speed = 0.0"),
+     "vehicle[V1].desired_speed", "0.0"),
+    ("start above desired speed", HEADER + GOOD_VEHICLE.replace("speed = 5.5", "speed = 5.5\ndesired_speed = 4.0"),
+     "vehicle[V1].speed", "5.5"),
     ("negative rate", HEADER + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = -100\nkappa = 0.5\n',
      "flow[0].rate", "-100"),
     ("flow kappa outside", HEADER + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = 100\n'

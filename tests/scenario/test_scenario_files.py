@@ -49,3 +49,5 @@ def test_case2_start_points_and_v4_in_junction(variant):
     assert (by_id["V5"].lane, by_id["V5"].movement, by_id["V5"].approach) == ("outer", "right", "south")
     assert tuple(by_id[f"V{i}"].kappa for i in range(1, 6)) == CASE2_KAPPA[variant]
     assert [by_id[f"V{i}"].speed for i in range(1, 6)] == [6.0, 5.0, 5.5, 5.0, 6.0]
+    # "the low speed of V4": it keeps its 5 m/s; the others drive up to the model's v_max
+    assert [by_id[f"V{i}"].desired_speed for i in range(1, 6)] == [None, None, None, 5.0, None]

@@ -109,3 +109,6 @@ def test_case2_v4_starts_inside_the_junction(tmp_path):
     vehicles = pd.read_csv(out / "vehicles.csv").set_index("vehicle")
     assert vehicles["arrival"].notna().all()
     assert vehicles.loc["V5", "exit_lane"] == "middle" and vehicles.loc["V4", "exit_lane"] == "inner"
+    # desired_speed = 5 m/s: SUMO drives V4 no faster (the others reach the model's 10 m/s)
+    top = traj.groupby("vehicle")["speed"].max()
+    assert top["V4"] <= 5.0 + 1e-6 and top.drop("V4").max() > 9.0
