@@ -140,9 +140,11 @@ class GameController:
         self.controlled: set[str] = set()
         self.convergence: list[ConvergenceRecord] = []
         self.filtered = 0  # accelerations the safety filter lowered
+        self.cleared = 0  # accelerations the safety filter raised to clear a crossing (box rule)
         self._game_s = {False: 0.004, True: 0.002}  # [s] running mean wall time of one exit-lane
         #                                              combination of a game, cold / warm
         self._solo_s = 0.001  # [s] running mean wall time of one solo solve
+        self._entered: dict[str, float] = {}  # [s] when each vehicle entered the junction
         self._choice_age: dict[str, int] = {}  # steps since a vehicle's exit lane was last decided
         self._solo_inputs: dict[str, tuple] = {}  # vehicle -> (steps since its solo solve, exit, leader prediction used)
         self._decided_at: float | None = None  # [s] time of the last decide call
@@ -186,6 +188,8 @@ class GameController:
             self.options.pop(vid, None)
             self._solo_inputs.pop(vid, None)
             self._choice_age.pop(vid, None)
+            self._entered.pop(vid, None)
+        self._record_entries(world)
         if not active:
             return decisions
 
@@ -239,6 +243,11 @@ class GameController:
         if self.gs.safety_filter:
             self._safety_filter(world, rows, leaders, lateral, decisions)
         return decisions
+
+    def _record_entries(self, world: World) -> None:
+        for k in range(len(world)):
+            if world.role[k] == "passing":
+                self._entered.setdefault(world.ids[k], world.time)
 
     def _apply(self, world: World, k: int, plan: Plan, option: str, decisions: Decisions) -> None:
         vid = world.ids[k]
@@ -295,24 +304,42 @@ class GameController:
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -gs.a_min, period)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k_of[r]])) / period)
         plans = dict(self.plans)
+        clear: set[str] = set()  # vehicles in a crossing that another one waits for
         for _pass in range(2):
+            for vid in clear:
+                if vid in plans and float(plans[vid].accelerations[0]) < gs.clear_accel:
+                    plans[vid] = braking_plan(plans[vid], gs.clear_accel)  # constant: it drives on
             for vid, limit in cap.items():
                 if vid in plans and limit < float(plans[vid].accelerations[0]):
                     plans[vid] = braking_plan(plans[vid], max(limit, gs.a_min))
-            self._guard_crossings(world, rows, lateral, chosen, plans, cap, period)
+            self._guard_crossings(world, rows, lateral, chosen, plans, cap, period, clear)
+        for vid in clear:
+            # the box rule: a vehicle inside a crossing that another waits for clears it (its own
+            # plan may wait for the other, as a game played before the wait can say), unless a
+            # cap of its own holds it back
+            if vid in decisions.accel and decisions.accel[vid] < gs.clear_accel:
+                decisions.accel[vid] = min(gs.clear_accel, cap.get(vid, math.inf))
+                self.cleared += 1
         for vid, limit in cap.items():
             if limit < decisions.accel[vid]:
                 decisions.accel[vid] = max(limit, gs.a_min)
                 self.filtered += 1
 
-    def _guard_crossings(self, world: World, rows: _Rows, lateral, chosen, plans, cap, period) -> None:
+    def _guard_crossings(self, world: World, rows: _Rows, lateral, chosen, plans, cap, period,
+                         clear: set[str]) -> None:
         """Caps (into ``cap``) for every crossing the ``plans`` would share within
-        ``safety_time_gap``: the later one stops before its zone; if neither can any more (both
-        inside, or committed), the one whose plan leaves its zone later holds back as hard as it
-        may and the other clears the crossing (a deadlock of vehicles stopped in each other's
-        zones is broken in a fixed order, never by all of them moving at once). A vehicle still
-        before its stop line waits at the line when it can, not before a zone inside the
-        junction."""
+        ``safety_time_gap`` (control/safety.py).
+
+        Who yields follows one priority order, so that waits cannot form a cycle (a deadlock of
+        vehicles stopped in each other's zones): a vehicle inside the junction ranks by the time
+        it entered it (first in, first out, like a queue), ahead of every vehicle not yet in;
+        among those, the one that reaches the crossing first ranks higher. The lower-ranked one
+        yields if it can still stay out of its zone (waiting at its stop line if it has not
+        reached it: AIM's rule, enter only to clear); else the higher-ranked one yields if it
+        can; else both are in (or committed) and the lower-ranked one holds back as hard as it
+        may while the other clears the crossing. A higher-ranked vehicle already inside its zone
+        that a lower-ranked one yields to is put in ``clear``: it must drive out.
+        """
         gs = self.gs
         ids, k_of = world.ids, rows.vehicle
         for lat in lateral:
@@ -327,27 +354,42 @@ class GameController:
             in_j, out_j = occupancy(pj, *lat.zone_j)
             if in_i >= out_j + gs.safety_time_gap or in_j >= out_i + gs.safety_time_gap:
                 continue  # the plans keep the crossing clear
-            later_first = sorted(((in_i, ki, lat.ri, lat.zone_i[0]), (in_j, kj, lat.rj, lat.zone_j[0])),
-                                 key=lambda e: -e[0])
-            for _t_in, k, r, enter in later_first:
-                s_k, v_k = float(world.s[k]), float(world.v[k])
-                # still before the junction: wait at the stop line, not inside it, where a vehicle
-                # stopped before one crossing can block another (AIM's rule: enter only to clear)
-                s_stop = float(self.table.s_stop[self._pidx[r]])
-                a = stopping_acceleration(s_k, v_k, s_stop - gs.safety_margin) if s_k < s_stop else None
-                if a is None or a < gs.a_min:
-                    a = stopping_acceleration(s_k, v_k, enter - gs.safety_margin)
-                if a is not None and a >= gs.a_min:
+            lower_first = sorted(((self._rank(world, ki, in_i), ki, lat.ri, lat.zone_i[0]),
+                                  (self._rank(world, kj, in_j), kj, lat.rj, lat.zone_j[0])), reverse=True)
+            for n, (_rank, k, r, enter) in enumerate(lower_first):
+                a = self._stay_out(world, k, float(self.table.s_stop[self._pidx[r]]), enter)
+                if a is not None:
                     cap[ids[k]] = min(cap.get(ids[k], math.inf), a)
+                    if n == 0:
+                        _, other, _, enter_other = lower_first[1]
+                        if float(world.s[other]) >= enter_other and float(world.v[other]) < gs.clear_speed:
+                            clear.add(ids[other])
                     break
             else:
-                # neither can stop before its zone: the one whose plan leaves it later holds back
-                # (ties: the one less far through its zone), the other clears the crossing
-                order = []
-                for k, (z_in, z_out), out in ((ki, lat.zone_i, out_i), (kj, lat.zone_j, out_j)):
-                    order.append((-out, (float(world.s[k]) - z_in) / max(z_out - z_in, 1e-9), ids[k], k))
-                _, _, vid, k = min(order)
-                cap[vid] = min(cap.get(vid, math.inf), max(gs.a_min, -float(world.v[k]) / period))
+                k = lower_first[0][1]
+                cap[ids[k]] = min(cap.get(ids[k], math.inf), max(gs.a_min, -float(world.v[k]) / period))
+
+    def _rank(self, world: World, k: int, t_in: float) -> tuple:
+        """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first."""
+        entered = self._entered.get(world.ids[k])
+        return (0, entered, world.ids[k]) if entered is not None else (1, t_in, world.ids[k])
+
+    def _stay_out(self, world: World, k: int, s_stop: float, enter: float) -> float | None:
+        """[m/s^2] the acceleration that keeps vehicle k out of a zone starting at ``enter`` [m]:
+        stop at its stop line (less the margin) if it has not reached it and can, else before
+        the zone (less the margin, or at its edge when already within the margin); None if it
+        cannot any more (inside, or too fast)."""
+        gs = self.gs
+        s_k, v_k = float(world.s[k]), float(world.v[k])
+        if s_k >= enter:
+            return None
+        for target in (s_stop - gs.safety_margin, enter - gs.safety_margin, enter - 0.05):
+            if target <= s_k:
+                continue
+            a = stopping_acceleration(s_k, v_k, target)
+            if a is not None and a >= gs.a_min:
+                return a
+        return max(gs.a_min, -v_k / self.ctx.control_period) if v_k < 0.1 else None
 
     def fallback(self, world: World) -> Decisions:
         """The last applied plan shifted by one period (comfortable braking where there is none),
@@ -362,6 +404,7 @@ class GameController:
         if self._decided_at == world.time:
             self.plans = self._applied
         decisions = Decisions(fallback=True)
+        self._record_entries(world)
         period = self.ctx.control_period
         active = set()
         for k in range(len(world)):

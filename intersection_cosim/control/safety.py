@@ -12,17 +12,18 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   zone's end. For cross pairs the zone is the conflict table's body-overlap stretch
   (``zone_in``, ``zone_out``: where the body overlaps the area the other's bodies sweep); for
   confluence pairs it is ``s_cp - W/2`` to ``s_cp + W/2 + L`` (after the merge the pair is a
-  following pair). If the two intervals come closer than ``safety_time_gap``, the vehicle that
-  would enter later yields: it brakes so that it can stop ``safety_margin`` before its zone
-  (a = -v^2 / 2d, at most |a_min|). If it can no longer stop, it is committed and the other one
-  yields instead, if it can. A vehicle still before its stop line waits at the line when it
-  can (as in AIM, a vehicle enters only to clear: one stopped inside the junction before one
-  crossing may block another, and three such make a deadlock). If neither can stop (both
-  inside their zones, or committed), the one whose plan leaves its zone later holds back
-  (stops in place, or brakes as hard as it may) and the other clears the crossing: a deadlock of vehicles stopped in each other's zones is broken in
-  a fixed order instead of by all of them driving off at once. A pair is guarded until one of
-  the two has left its zone. Vehicles braked in a first pass are checked again with their
-  braking plan, so a vehicle made to stop is seen by the other crossings it now blocks.
+  following pair). If the two intervals come closer than ``safety_time_gap``, one of the two
+  yields, by one priority order so that waits cannot form a cycle (vehicles stopped in each
+  other's zones, a deadlock): a vehicle inside the junction ranks by when it entered it (first
+  in, first out), ahead of every vehicle not yet in; among those, the one that would reach the
+  crossing first ranks higher. The lower-ranked one yields if it can still stay out of its zone:
+  it brakes to stop ``safety_margin`` before it (a = -v^2 / 2d, at most |a_min|), or at its stop
+  line if it has not reached it (as in AIM, a vehicle enters only to clear: one stopped inside
+  the junction before one crossing may block another). Else the higher-ranked one yields if it
+  can; else both are in (or committed) and the lower-ranked one holds back as hard as it may
+  while the other clears the crossing. A pair is guarded until one of the two has left its
+  zone. Vehicles braked in a first pass are checked again with their braking plan, so a vehicle
+  made to stop is seen by the other crossings it now blocks.
 * **Leaders.** A follower's acceleration is capped by the safe speed of Krauss' car-following
   model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + v_L^2 + 2 b (gap - margin)), with
   b = |a_min| and tau = the control period, so it can always stop behind a leader that brakes as

@@ -196,7 +196,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                    "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),
                    "fallbacks": int(steps["fallback"].sum()),
                    "steps_with_deferred_work": int(steps["deferred"].gt(0).sum()),
-                   "safety_interventions": getattr(controller, "filtered", None)},
+                   "safety_interventions": getattr(controller, "filtered", None),
+                   "box_rule_clearances": getattr(controller, "cleared", None)},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,

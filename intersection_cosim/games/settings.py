@@ -82,11 +82,11 @@ class GameSettings:
     lane_choice_range: float = 30.0  # [m] a vehicle chooses among its exit lanes only within this
     #                                  distance of its stop line (v_max * t_p: what the horizon
     #                                  reaches); farther out it keeps its current exit lane
+    lane_choice_period: int = 5  # [-] control steps between a vehicle's exit-lane decisions (it
+    #                              holds its choice in between; 1 = decide every step)
     anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
     #                              and solo solves that would not finish before the rest of the
     #                              budget are deferred (their vehicles keep their last plan, shifted)
-    lane_choice_period: int = 5  # [-] control steps between a vehicle's exit-lane decisions (it
-    #                              holds its choice in between; 1 = decide every step)
     solo_leader_tol: float = 0.1  # [m] and [m/s]: a solo vehicle solves again when its leader's
     #                               predicted positions (speeds) moved more than this since its solve
 
@@ -94,6 +94,9 @@ class GameSettings:
     safety_filter: bool = True  # [-] check every applied acceleration against collision
     safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
+    clear_accel: float = 1.0  # [m/s^2] box rule: a vehicle standing (below clear_speed) inside a
+    #                           crossing that another vehicle waits for drives out at least this hard
+    clear_speed: float = 1.0  # [m/s]
 
     @property
     def steps(self) -> int:
@@ -101,13 +104,14 @@ class GameSettings:
         return int(round(self.horizon / self.dt))
 
     def check(self) -> list[tuple[str, str]]:
-        problems = positive(self, "free_resolve_steps", "lane_choice_period", "horizon", "dt", "a_max", "comfort_brake", "nash_tol",
-                            "nash_max_iter", "sqp_steps_per_iteration", "stackelberg_tol",
-                            "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
+        problems = positive(self, "free_resolve_steps", "lane_choice_period", "horizon", "dt", "a_max",
+                            "comfort_brake", "nash_tol", "nash_max_iter", "sqp_steps_per_iteration",
+                            "stackelberg_tol", "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
                             "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",
                             "gap_floor", "osqp_eps_abs", "osqp_max_iter",
                             "osqp_check_termination")
         problems += non_negative(self, "safety_time_gap", "safety_margin", "solo_leader_tol",
+                                  "clear_accel", "clear_speed",
                                   "lane_choice_range", "anytime_reserve")
         problems += non_negative(self, "w_accel", "w_jerk", "active_set_max_updates",
                                  "active_tol", "line_search_steps", "armijo",

@@ -147,3 +147,33 @@ def test_two_vehicles_stopped_in_each_others_zones_do_not_drive_off_together(con
     moving = sorted(v for v in ("A", "B") if d.accel[v] > 1e-9)
     held = sorted(v for v in ("A", "B") if abs(d.accel[v]) <= 1e-9)
     assert len(moving) == 1 and len(held) == 1, d.accel
+
+
+def test_a_vehicle_standing_in_a_crossing_that_another_waits_for_drives_out(controller, paths):
+    """The box rule. B entered the junction first and stands inside the crossing; its own plan
+    waits (as a game played earlier can say, expecting A to go first). A, ranked lower, yields
+    before its zone; then B must clear the crossing: its acceleration is raised to clear_accel,
+    or A and B would wait for each other for ever (Case 1 A without the trigger did)."""
+    t = controller.table
+    p, q = _deepest_crossing(t)
+    a_path, b_path = t.ids[p], t.ids[q]
+    s_b = 0.5 * (t.zone_in[q, p] + t.zone_out[q, p])  # B in the middle of its zone
+    s_a = t.zone_in[p, q] - 3.0  # A 3 m before its zone, inside the junction
+    assert s_a > t.s_stop[p]
+    world = _world(paths, 5.0, [("A", a_path, s_a, 2.0), ("B", b_path, s_b, 0.0)])
+    world.role = ["passing", "passing"]
+    controller._entered = {"B": 1.0, "A": 2.0}
+    gs = controller.gs
+    waiting = np.zeros(gs.steps)  # B's last plan: stand
+    controller.plans = {"A": Plan.from_accelerations(s_a, 2.0, np.full(gs.steps, 1.0), gs.dt),
+                        "B": Plan.from_accelerations(s_b, 0.0, waiting, gs.dt)}
+    controller.options = {"A": paths[a_path].exit_lane, "B": paths[b_path].exit_lane}
+    rows = controller._rows(world, {0, 1})
+    leaders, lateral = controller._relations(world, rows, {0, 1})
+    from intersection_cosim.control.base import Decisions
+
+    d = Decisions(accel={"A": 1.0, "B": 0.0})
+    controller._safety_filter(world, rows, leaders, lateral, d)
+    assert d.accel["A"] < 0.0  # A yields before its zone
+    assert d.accel["B"] == pytest.approx(gs.clear_accel)
+    assert controller.cleared == 1
