@@ -321,7 +321,7 @@ class GameController:
                 decisions.accel[vid] = min(gs.clear_accel, cap.get(vid, math.inf))
                 self.cleared += 1
         for vid, limit in cap.items():
-            if limit < decisions.accel[vid]:
+            if vid in decisions.accel and limit < decisions.accel[vid]:
                 decisions.accel[vid] = max(limit, gs.a_min)
                 self.filtered += 1
 
@@ -348,6 +348,10 @@ class GameController:
                 continue
             ki, kj = int(k_of[ri]), int(k_of[rj])
             pi, pj = plans.get(ids[ki]), plans.get(ids[kj])
+            if pi is None and world.role[ki] == "outside":
+                pi = self._coasting_plan(world, ki)
+            if pj is None and world.role[kj] == "outside":
+                pj = self._coasting_plan(world, kj)
             if pi is None or pj is None:
                 continue
             in_i, out_i = occupancy(pi, *lat.zone_i)
@@ -369,8 +373,16 @@ class GameController:
                 k = lower_first[0][1]
                 cap[ids[k]] = min(cap.get(ids[k], math.inf), max(gs.a_min, -float(world.v[k]) / period))
 
+    def _coasting_plan(self, world: World, k: int) -> Plan:
+        """A vehicle SUMO drives again (it has left the junction), predicted at constant speed."""
+        return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.gs.steps), self.gs.dt)
+
     def _rank(self, world: World, k: int, t_in: float) -> tuple:
-        """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first."""
+        """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first.
+        A vehicle that has left the junction (SUMO drives it, its rear may still be in the
+        crossing) comes first: it cannot yield."""
+        if world.role[k] == "outside":
+            return (-1, 0.0, world.ids[k])
         entered = self._entered.get(world.ids[k])
         return (0, entered, world.ids[k]) if entered is not None else (1, t_in, world.ids[k])
 
@@ -494,7 +506,8 @@ class GameController:
                 continue
             if risk.kind[m] not in (KIND_CROSS, KIND_CONFLUENCE):
                 continue
-            if k_of[ri] not in active or k_of[rj] not in active:
+            both = k_of[ri] in active and k_of[rj] in active
+            if not both and k_of[ri] not in active and k_of[rj] not in active:
                 continue
             s_i, s_j = float(risk.s_cp_i[m]), float(risk.s_cp_j[m])
             if risk.kind[m] == KIND_CROSS:
@@ -505,7 +518,9 @@ class GameController:
                 zone_i, zone_j = (s_i - half, s_i + half + length), (s_j - half, s_j + half + length)
             if s_i_now[m] > zone_i[1] or s_j_now[m] > zone_j[1]:
                 continue  # one of them has cleared the crossing
-            live = not (d_i[m] < -clear or d_j[m] < -clear)
+            # a vehicle that has left the junction (front past its exit, handed back to SUMO) may
+            # still have its rear in the crossing: guarded, no game
+            live = both and not (d_i[m] < -clear or d_j[m] < -clear)
             play = live and (bool(risk.trigger[m]) or not self.etm)
             lateral.append(_Lateral(ri, rj, kind, s_i, s_j, live, play, zone_i, zone_j))
         return leaders, lateral

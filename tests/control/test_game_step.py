@@ -177,3 +177,21 @@ def test_a_vehicle_standing_in_a_crossing_that_another_waits_for_drives_out(cont
     assert d.accel["A"] < 0.0  # A yields before its zone
     assert d.accel["B"] == pytest.approx(gs.clear_accel)
     assert controller.cleared == 1
+
+
+def test_a_vehicle_that_left_the_junction_still_guards_its_rear(controller, paths):
+    """S's front has passed the junction exit (SUMO drives it again, no plan of ours), but its
+    rear is still in the crossing: E, standing before its zone with a plan to drive off, must
+    wait (a collision at 1800 veh/h unbalanced, seed 2, t = 97.45 s)."""
+    t = controller.table
+    cross = np.argwhere((t.kind == 2) & (t.zone_out > t.s_exit[:, None] + 1.0))
+    q, p = (int(x) for x in cross[0])  # S on path q, E on path p
+    s_path, e_path = t.ids[q], t.ids[p]
+    s_s = float(t.s_exit[q]) + 0.5  # front just out of the junction
+    assert s_s < t.zone_out[q, p]
+    s_e = float(t.zone_in[p, q]) - 1.0
+    world = _world(paths, 3.0, [("E", e_path, s_e, 0.0), ("S", s_path, s_s, 5.0)])
+    world.role = ["passing" if s_e > t.s_stop[p] else "ready", "outside"]
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    assert "S" not in d.accel
+    assert d.accel["E"] <= 1e-9
