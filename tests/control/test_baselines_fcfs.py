@@ -6,7 +6,6 @@ pure unit (no simulation).
 
 from __future__ import annotations
 
-import json
 import re
 import tomllib
 from pathlib import Path

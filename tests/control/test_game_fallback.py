@@ -3,10 +3,8 @@
 import numpy as np
 import pytest
 
-from intersection_cosim.control.base import ControlContext, World
-from intersection_cosim.control.game import GameController
+from intersection_cosim.control.base import World
 from intersection_cosim.games.problem import Plan
-from intersection_cosim.models.settings import ModelSettings
 
 
 def _world(paths, t, s_a, s_b, v=8.0):
@@ -19,14 +17,6 @@ def _world(paths, t, s_a, s_b, v=8.0):
                  heading=np.zeros(2), kappa=np.array([0.9, 0.9]), role=["ready", "ready"],
                  lanes=["south_in_2", "east_in_2"],
                  exit_choices={"V1": ("inner",), "V2": ("inner",)})
-
-
-@pytest.fixture
-def controller(paths, net_file):
-    c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
-                           solver=None, etm=True))
-    return c
 
 
 def test_fallback_without_plans_brakes_comfortably(controller, paths):

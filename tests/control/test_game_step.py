@@ -6,10 +6,8 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control import game as game_module
-from intersection_cosim.control.base import ControlContext, World
-from intersection_cosim.control.game import GameController
+from intersection_cosim.control.base import World
 from intersection_cosim.games.problem import Plan
-from intersection_cosim.models.settings import ModelSettings
 
 LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
 STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
@@ -26,14 +24,6 @@ def _world(paths, t, vehicles):
                  a=np.zeros(n), x=xy[:, 0], y=xy[:, 1], heading=np.zeros(n), kappa=np.full(n, 0.5),
                  role=["ready"] * n, lanes=[paths[p].lanes[0] for p in pids],
                  exit_choices={i: (paths[p].exit_lane,) for i, p in zip(ids, pids)})
-
-
-@pytest.fixture
-def controller(paths, net_file):
-    c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
-                           solver=None, etm=True))
-    return c
 
 
 def test_a_crossing_is_guarded_until_the_turning_body_has_cleared_it(controller, paths):
