@@ -331,13 +331,14 @@ class PlayerObjective:
         H += (R.T * w2) @ R
 
     # ------------------------------------------------------------------ pair model (Stackelberg)
-    def pair_model(self, a: np.ndarray, q: int, plan_q) -> tuple[np.ndarray, ...]:
+    def pair_model(self, a: np.ndarray, q: int, plan_q, partner_curvature: bool = True) -> tuple[np.ndarray, ...]:
         """Convex model of C_p in (a_p, a_q) jointly.
 
         Returns grad_p (N,), grad_q (N,), H_pp, H_pq, H_qq (N, N): the Gauss-Newton model
         J^T diag(max(f'', 0)) J with J = [dg/da_p, dg/da_q] for each term coupling p with q, plus
         p's exact quadratic terms and its terms with other players in H_pp. ``plan_q`` must be
-        the plan of q installed by :meth:`set_others`.
+        the plan of q installed by :meth:`set_others`. With ``partner_curvature=False`` grad_q
+        and H_qq are returned as None (the Stackelberg follower's model needs neither).
         """
         n, hm = self.n, self.hm
         grad_p = self.Q @ a + self.b0
@@ -373,7 +374,10 @@ class PlayerObjective:
             GW = G.T * w2
             H_pp += GW @ G
             if Gq is not None:
-                grad_q += Gq.T @ w1
                 H_pq += GW @ Gq
-                H_qq += (Gq.T * w2) @ Gq
+                if partner_curvature:
+                    grad_q += Gq.T @ w1
+                    H_qq += (Gq.T * w2) @ Gq
+        if not partner_curvature:
+            return grad_p, None, H_pp, H_pq, None
         return grad_p, grad_q, H_pp, H_pq, H_qq

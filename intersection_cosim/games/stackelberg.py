@@ -287,7 +287,7 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
         aL, aF = plans[L].accelerations, plans[F].accelerations
         # follower's model in (aF, aL) and leader's model in (aL, aF)
         objF.set_others(plans)
-        gF, _gFL, H_FF, H_FL, _ = objF.pair_model(aF, L, plans[L])
+        gF, _, H_FF, H_FL, _ = objF.pair_model(aF, L, plans[L], partner_curvature=False)
         objL.set_others(plans)
         gL, gLF, H_LL, H_LF, H_FFL = objL.pair_model(aL, F, plans[F])
         follower.set_model(aF, aL, gF, H_FF, H_FL)
