@@ -77,6 +77,7 @@ class _Rows:
     vehicle: np.ndarray  # (R,) index into the World
     option: list[str]  # exit lane of the row
     path: list[str]  # path id of the row
+    pidx: np.ndarray  # (R,) index of the row's path in the conflict table
 
 
 @dataclass
@@ -269,16 +270,23 @@ class GameController:
                               (it.s_cp_j - float(world.s[game.b])) / max(float(world.v[game.b]), floor))
         return (tcp, game.a, game.b)
 
+    def _shift(self, plan: Plan) -> Plan:
+        """``plan`` moved on by one control period (``self.shift`` solver steps)."""
+        for _ in range(self.shift):
+            plan = shift_plan(plan)
+        return plan
+
+    def _from_state(self, world: World, k: int, a) -> Plan:
+        """The plan of accelerations ``a`` [m/s^2] started from vehicle k's measured state."""
+        return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.gs.dt)
+
     def _kept_plan(self, world: World, k: int) -> Plan:
         """Vehicle k's last applied plan shifted by one period and started from its measured
         state; comfortable braking if it has none."""
         plan = self.plans.get(world.ids[k])
         if plan is not None:
-            for _ in range(self.shift):
-                plan = shift_plan(plan)
-            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), plan.accelerations, plan.dt)
-        a = np.full(self.gs.steps, -self.gs.comfort_brake)
-        return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.gs.dt)
+            return self._from_state(world, k, self._shift(plan).accelerations)
+        return self._from_state(world, k, np.full(self.gs.steps, -self.gs.comfort_brake))
 
     def _held_option(self, world: World, k: int) -> str:
         """The exit lane vehicle k holds: its last choice, else its path's."""
@@ -361,7 +369,7 @@ class GameController:
             lower_first = sorted(((self._rank(world, ki, in_i), ki, lat.ri, lat.zone_i[0]),
                                   (self._rank(world, kj, in_j), kj, lat.rj, lat.zone_j[0])), reverse=True)
             for n, (_rank, k, r, enter) in enumerate(lower_first):
-                a = self._stay_out(world, k, float(self.table.s_stop[self._pidx[r]]), enter)
+                a = self._stay_out(world, k, float(self.table.s_stop[rows.pidx[r]]), enter)
                 if a is not None:
                     cap[ids[k]] = min(cap.get(ids[k], math.inf), a)
                     if n == 0:
@@ -375,7 +383,7 @@ class GameController:
 
     def _coasting_plan(self, world: World, k: int) -> Plan:
         """A vehicle SUMO drives again (it has left the junction), predicted at constant speed."""
-        return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.gs.steps), self.gs.dt)
+        return self._from_state(world, k, np.zeros(self.gs.steps))
 
     def _rank(self, world: World, k: int, t_in: float) -> tuple:
         """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first.
@@ -461,7 +469,7 @@ class GameController:
                 vehicle.append(k)
                 option.append(self.paths[pid].exit_lane)
                 path.append(pid)
-        return _Rows(np.asarray(vehicle, dtype=np.intp), option, path)
+        return _Rows(np.asarray(vehicle, dtype=np.intp), option, path, self.table.indices(path))
 
     def _relations(self, world: World, rows: _Rows, active: set[int]):
         """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM.
@@ -478,8 +486,7 @@ class GameController:
         keep = rows.vehicle[i] != rows.vehicle[j]
         i, j = i[keep], j[keep]
         k_of = rows.vehicle
-        pidx = table.indices(rows.path)
-        self._pidx = pidx
+        pidx = rows.pidx
         risk = event_trigger(table, pidx, world.s[k_of], world.v[k_of], world.kappa[k_of], ms, pairs=(i, j))
         leaders: dict[int, _Leader] = {}  # row -> nearest leader
         lateral: list[_Lateral] = []
@@ -602,15 +609,10 @@ class GameController:
 
     def _leader_trajectory(self, world: World, leader: _Leader) -> tuple[np.ndarray, np.ndarray]:
         """Leader's predicted positions (in its own path) and speeds s_1..s_N, v_1..v_N."""
-        gs = self.gs
         k = leader.vehicle
         plan = self.plans.get(world.ids[k])
-        if plan is not None:
-            for _ in range(self.shift):
-                plan = shift_plan(plan)
-            plan = Plan.from_accelerations(float(world.s[k]), float(world.v[k]), plan.accelerations, gs.dt)
-        else:
-            plan = Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(gs.steps), gs.dt)
+        plan = self._from_state(world, k, self._shift(plan).accelerations) if plan is not None \
+            else self._coasting_plan(world, k)
         return plan.positions[1:], plan.speeds[1:]
 
     def _player(self, world: World, k: int, option: str, leaders: dict[int, _Leader],
@@ -733,8 +735,7 @@ class GameController:
         if (age + 1 >= self.gs.free_resolve_steps or last_option != option
                 or self.options.get(vid) != option or (last_leader is None) != (player.leader is None)):
             return False
-        for _ in range(self.shift):
-            plan = shift_plan(plan)
+        plan = self._shift(plan)
         v = float(world.v[k])
         v_cap = player.v_max if player.v_max is not None else self.model.v_max  # [m/s]
         if abs(plan.speeds[0] - v) > 0.05 or plan.speeds.max() > v_cap + 1e-6:
@@ -748,14 +749,9 @@ class GameController:
             if (m <= 0 or np.abs(s_now[:m] - s_then[lag:]).max() > tol
                     or np.abs(v_now[:m] - v_then[lag:]).max() > tol):
                 return False
-        self.plans[vid] = Plan.from_accelerations(float(world.s[k]), v, plan.accelerations, plan.dt)
+        self.plans[vid] = self._from_state(world, k, plan.accelerations)
         self._solo_inputs[vid] = (age + 1, option, last_leader)
         return True
 
     def _shifted(self, plans: tuple[Plan, ...]) -> tuple[Plan, ...]:
-        out = []
-        for p in plans:
-            for _ in range(self.shift):
-                p = shift_plan(p)
-            out.append(p)
-        return tuple(out)
+        return tuple(self._shift(p) for p in plans)
