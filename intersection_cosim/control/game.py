@@ -44,6 +44,7 @@ junction). A vehicle that has left the conflict zone is handed back to SUMO's dr
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -62,7 +63,7 @@ from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.models.prediction import all_pairs
 from intersection_cosim.models.risk import event_trigger
-from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, load_conflict_table
+from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, load_conflict_table
 from intersection_cosim.network.spec import LANE_INDEX, LANE_USE, IntersectionSpec
 
 log = logging.getLogger(__name__)
@@ -80,11 +81,16 @@ class _Rows:
     pidx: np.ndarray  # (R,) index of the row's path in the conflict table
 
 
+FAR = 1.0e4  # [m] added to a leader's predicted position where it no longer constrains its follower
+
+
 @dataclass
 class _Leader:
     vehicle: int  # World index of the leader
     offset: float  # [m] leader's s in the follower's path = s_leader + offset
     gap: float  # [m] distance along the shared stretch (front to front)
+    until: float = math.inf  # [m] leader's s (own path) past which it no longer constrains the
+    #                          follower: the end of a diverging shared stretch plus a length
 
 
 class _Lateral(NamedTuple):
@@ -162,6 +168,8 @@ class GameController:
                                          context.model.vehicle_length)
         self.etm = context.etm
         self.shift = max(1, int(round(context.control_period / self.gs.dt)))
+        # a solo vehicle's SQP stops after solo_max_iter steps and goes on at the next period
+        self._solo_gs = dataclasses.replace(self.gs, nash_max_iter=self.gs.solo_max_iter)
         reset_workspaces()
         self._warm_up()
 
@@ -509,7 +517,11 @@ class GameController:
                 gap = abs(d_i[m] - d_j[m])
                 if follow in leaders and leaders[follow].gap <= gap:
                     continue
-                leaders[follow] = _Leader(int(k_of[lead]), float(s_cp_f - s_cp_l), float(gap))
+                # two paths from one approach lane that part (s_cp = end of the shared stretch,
+                # where the centre lines are a width apart): once the leader's rear is past it,
+                # the follower may draw level on its own branch (Case 2's V3 beside V4)
+                until = s_cp_l + clear if risk.kind[m] == KIND_FOLLOWING else math.inf
+                leaders[follow] = _Leader(int(k_of[lead]), float(s_cp_f - s_cp_l), float(gap), float(until))
                 continue
             if risk.kind[m] not in (KIND_CROSS, KIND_CONFLUENCE):
                 continue
@@ -613,7 +625,11 @@ class GameController:
         plan = self.plans.get(world.ids[k])
         plan = self._from_state(world, k, self._shift(plan).accelerations) if plan is not None \
             else self._coasting_plan(world, k)
-        return plan.positions[1:], plan.speeds[1:]
+        s, v = plan.positions[1:], plan.speeds[1:]
+        parted = s > leader.until
+        if parted.any():  # past the end of the shared stretch the leader is out of the way
+            s = np.where(parted, s + FAR, s)
+        return s, v
 
     def _player(self, world: World, k: int, option: str, leaders: dict[int, _Leader],
                 rows_of: dict[tuple[int, str], int], partner: int | None = None) -> Player:
@@ -688,15 +704,18 @@ class GameController:
         problems, warm = {}, {}
         for o in opts:
             problems[(o,)] = Problem((players[o],), ())
-            if ("solo", vid, o) in self.warm:
+            if vid in self.plans and self.options.get(vid) == o:
+                warm[(o,)] = (self._shift(self.plans[vid]),)  # the plan it is driving (maybe a game's)
+            elif ("solo", vid, o) in self.warm:
                 warm[(o,)] = self._shifted(self.warm[("solo", vid, o)])
+        solo_gs = self._solo_gs
         if len(problems) == 1:
             (combo, problem), = problems.items()
-            result = nash_equilibrium(problem, self.gs, self.model, warm_start=warm.get(combo))
+            result = nash_equilibrium(problem, solo_gs, self.model, warm_start=warm.get(combo))
             choice, results = combo, {combo: result}
         else:
             lc = lane_choice_game(problems, [self._lane_costs(world, k)], solver=nash_equilibrium,
-                                  settings=self.gs, model_settings=self.model, warm_starts=warm)
+                                  settings=solo_gs, model_settings=self.model, warm_starts=warm)
             result, choice, results = lc.result, lc.choice, lc.results
         for combo, res in results.items():
             if res.status != "solver failure":
@@ -707,6 +726,9 @@ class GameController:
             log.warning("t=%.2f s: best response of %s failed (%s); braking comfortably",
                         world.time, vid, result.message)
             plan = safe_plan(problems[choice].players[0], self.gs)
+            self._solo_inputs.pop(vid, None)
+        elif result.status != "converged":
+            # real-time iteration: the capped SQP continues from this plan at the next step
             self._solo_inputs.pop(vid, None)
         else:
             self._solo_inputs[vid] = (0, choice[0], problems[choice].players[0].leader)

@@ -79,6 +79,9 @@ class GameSettings:
     # --- closed-loop controller ---
     free_resolve_steps: int = 5  # [-] most control steps between solves of a vehicle in no game
     #                              whose inputs did not change (control/game.py, _reuse_solo_plan)
+    solo_max_iter: int = 4  # [-] SQP steps of a solo vehicle's best response per control step
+    #                         (real-time iteration: an unconverged plan is applied and the SQP goes
+    #                         on from it, shifted, at the next step; games are not capped this way)
     lane_choice_range: float = 30.0  # [m] a vehicle chooses among its exit lanes only within this
     #                                  distance of its stop line (v_max * t_p: what the horizon
     #                                  reaches); farther out it keeps its current exit lane
@@ -104,7 +107,7 @@ class GameSettings:
         return int(round(self.horizon / self.dt))
 
     def check(self) -> list[tuple[str, str]]:
-        problems = positive(self, "free_resolve_steps", "lane_choice_period", "horizon", "dt", "a_max",
+        problems = positive(self, "free_resolve_steps", "solo_max_iter", "lane_choice_period", "horizon", "dt", "a_max",
                             "comfort_brake", "nash_tol", "nash_max_iter", "sqp_steps_per_iteration",
                             "stackelberg_tol", "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
                             "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",

@@ -40,7 +40,9 @@ class ModelSettings:
     k_log: float = 1.0  # [-] weight of longitudinal safety J_log (Eq. 14)
     k_lat: float = 1.0  # [-] weight of lateral safety J_lat (Eq. 14)
     k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
-    k_y_lk: float = 0.05  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23)
+    k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23). Calibrated on
+    #                        Case 2: V3 takes the middle exit at kappa 0.85 (A) for k_y_lk <= 0.01 and
+    #                        keeps the inner one at 0.2 (B) for all values tried (0.005-0.05)
     k_phi_lk: float = 0.5  # [1/rad^2] weight of the heading error in J_lk (Eq. 23)
     k_e: float = 0.04  # [s^2/m^2] weight of the speed error in J_e (Eq. 24)
     v_max: float = 10.0  # [m/s] maximum (desired) speed in J_e (Eq. 24)

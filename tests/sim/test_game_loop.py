@@ -86,6 +86,20 @@ def test_stackelberg_min_ttc_not_below_nash(paper_runs):
 
 
 @pytest.mark.slow
+def test_case2_a_aggressive_v3_takes_the_middle_exit_and_v1_yields(paper_runs):
+    for c in ("nash", "stackelberg"):
+        a, b = _vehicles(paper_runs[("case2_A", c, True)]), _vehicles(paper_runs[("case2_B", c, True)])
+        assert a.loc["V3", "exit_lane"] == "middle", c
+        # past the end of the shared stretch V3 leaves slow V4 behind: seconds faster than in B
+        assert a.loc["V3", "travel_time"] < b.loc["V3", "travel_time"] - 2.0, c
+        assert "V1-V3" in _pairs(paper_runs[("case2_A", c, True)]).index  # they now merge
+        # V1 yields: V3 is the first of the two out of the junction onto the shared exit lane
+        traj = pd.read_csv(paper_runs[("case2_A", c, True)] / "trajectories.csv")
+        out = traj[traj["x"] > 12.0].groupby("vehicle")["time"].min()  # [s] past the east edge
+        assert out["V3"] < out["V1"] - 0.5, (c, out["V3"], out["V1"])
+
+
+@pytest.mark.slow
 def test_case2_b_v3_follows_v4_on_the_inner_lane_without_v1_conflict(paper_runs):
     for c in ("nash", "stackelberg"):
         run = paper_runs[("case2_B", c, True)]
