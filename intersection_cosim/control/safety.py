@@ -43,18 +43,20 @@ def occupancy(plan: Plan, enter: float, leave: float) -> tuple[float, float]:
     """[s] (enter, leave): when the planned front reaches arc length ``enter`` and when it passes
     ``leave`` [m] (a crossing's zone of the conflict table); ``inf`` where that is beyond the
     plan's horizon, 0 where it is already there."""
-    t = np.arange(len(plan.positions)) * plan.dt
-    pos = plan.positions
-    return _first_reach(t, pos, enter), _first_reach(t, pos, leave)
+    pos = plan.positions  # non-decreasing: plans keep v >= 0
+    k_in, k_out = pos.searchsorted((enter, leave))  # first samples at or past each point
+    return _first_reach(pos, int(k_in), enter, plan.dt), _first_reach(pos, int(k_out), leave, plan.dt)
 
 
-def _first_reach(t: np.ndarray, pos: np.ndarray, target: float) -> float:
-    if pos[0] >= target:
+def _first_reach(pos: np.ndarray, k: int, target: float, dt: float) -> float:
+    """[s] when ``pos`` (sampled every ``dt``) reaches ``target``, ``pos[k]`` its first sample at
+    or past it, linearly interpolated."""
+    if k == 0:
         return 0.0
-    k = int(np.argmax(pos >= target))
-    if pos[k] < target:
+    if k >= len(pos):
         return math.inf
-    return float(t[k - 1] + (target - pos[k - 1]) / max(pos[k] - pos[k - 1], 1e-9) * (t[k] - t[k - 1]))
+    p0, p1 = float(pos[k - 1]), float(pos[k])
+    return dt * (k - 1 + (target - p0) / max(p1 - p0, 1e-9))
 
 
 def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:

@@ -1,0 +1,32 @@
+"""occupancy(): when a planned front reaches and passes a crossing's zone."""
+
+import math
+
+import numpy as np
+import pytest
+
+from intersection_cosim.control.safety import braking_plan, occupancy
+from intersection_cosim.games.problem import Plan
+
+
+def test_occupancy_interpolates_the_plan_in_time():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        a = rng.uniform(-1.0, 2.0, 30)  # [m/s^2]
+        plan = Plan.from_accelerations(100.0, 6.0, a, 0.1)
+        pos = plan.positions
+        t = np.arange(len(pos)) * 0.1  # [s]
+        enter, leave = sorted(rng.uniform(pos[1], pos[-2], 2))
+        t_in, t_out = occupancy(plan, enter, leave)
+        assert t_in == pytest.approx(np.interp(enter, pos, t), abs=1e-9)
+        assert t_out == pytest.approx(np.interp(leave, pos, t), abs=1e-9)
+        assert 0.0 < t_in <= t_out < 3.0
+
+
+def test_occupancy_edges_already_in_and_beyond_the_horizon():
+    plan = Plan.from_accelerations(50.0, 5.0, np.zeros(30), 0.1)  # 5 m/s: 15 m in 3 s
+    assert occupancy(plan, 40.0, 55.0) == (0.0, pytest.approx(1.0))  # in the zone now, out after 1 s
+    t_in, t_out = occupancy(plan, 60.0, 70.0)
+    assert t_in == pytest.approx(2.0) and t_out == math.inf  # passes it after the horizon
+    stopped = braking_plan(plan, -4.0)  # stops after 3.1 m
+    assert occupancy(stopped, 54.0, 60.0) == (math.inf, math.inf)
