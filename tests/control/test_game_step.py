@@ -185,3 +185,33 @@ def test_a_vehicle_that_left_the_junction_still_guards_its_rear(controller, path
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert "S" not in d.accel
     assert d.accel["E"] <= 1e-9
+
+
+def test_a_leader_on_a_parting_path_stops_counting_past_the_shared_stretch(controller, paths):
+    """Two left turns from one approach lane, to the inner and to the middle exit lane (Case 2's
+    V4 and V3). The leader drives slowly 8 m ahead. Its predicted positions count for the
+    follower only while its rear is on the shared stretch: past it, a follower on the other
+    branch is free (far away), one on the same branch is not."""
+    t = controller.table
+    inner, middle = "north_inner_left_inner", "north_inner_left_middle"
+    p, q = t.index[inner], t.index[middle]
+    assert t.kind[p, q] == 1  # following: they share the approach lane
+    end = float(t.s_a[p, q])  # [m] where the two centre lines are a vehicle width apart
+    s_lead = end - 2.0
+    for follower_path, parted in ((middle, True), (inner, False)):
+        world = _world(paths, 0.0, [("LEAD", inner, s_lead, 4.0), ("F", follower_path, s_lead - 8.0, 8.0)])
+        controller.plans.clear()
+        rows = controller._rows(world, {0, 1})
+        leaders, _ = controller._relations(world, rows, {0, 1})
+        lead = leaders[controller._rows_of[(1, world.exit_choices["F"][0])]]
+        assert lead.vehicle == 0
+        s_pred, _v = controller._leader_trajectory(world, lead)
+        clear_at = end + controller.model.conflict_clearance  # [m] its rear past the end
+        beyond = s_pred > clear_at
+        assert beyond.any() and not beyond.all()  # it gets there within the horizon
+        coasting = s_lead + 4.0 * 0.1 * np.arange(1, 31)  # [m] constant 4 m/s
+        if parted:
+            assert np.all(s_pred[beyond] > coasting[beyond] + 1e3)
+            assert np.allclose(s_pred[~beyond], coasting[~beyond])
+        else:
+            assert np.allclose(s_pred, coasting)
