@@ -48,7 +48,8 @@ class GameSettings:
     cold_start_orders: bool = False  # cold Nash: also start from each passing order (3x the work)
     stackelberg_max_iter: int = 20  # [-] cap on leader iterations
     stackelberg_tol: float = 1e-2  # [m/s^2] converged when the leader's step is smaller than this
-    stackelberg_gain_rtol: float = 1e-4  # [-] ... or its model gain is below this fraction
+    stackelberg_gain_rtol: float = 1e-3  # [-] ... or its model gain is below this fraction (as
+    #                                      nash_cost_rtol: a smaller gain is not worth a follower solve)
     stackelberg_attempts: int = 1  # [-] leader QPs per iteration: after a rejected step (all its
     #                                halves tried) the trust region shrinks and the QP is re-solved
     active_set_max_updates: int = 4  # [-] follower active-set updates per leader step
