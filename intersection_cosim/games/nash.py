@@ -17,8 +17,6 @@ best-response iteration started from the decoupled optimum:
   iteration lowered its player's true cost by less than ``nash_cost_rtol`` (relative) while no
   plan moved more than ``nash_cost_guard``: then each player is within a second-order small gain
   of its best response to the final plans (a flat optimum can still move its plan a little).
-  With a single player without coupling terms (a free vehicle alone) the model is exact and one
-  QP is the optimum: the iteration stops there instead of spending a QP to confirm it.
 
 With ``GameSettings.cold_start_orders`` a cold solve of a game with lateral conflicts also runs
 the iteration from starts where each player in turn passes the conflict point first (full
@@ -87,7 +85,6 @@ class _Game:
         self.known_cost: list[float | None] = [None] * self.n  # cost valid for the current plans
         # per player: (model Hessian, own plan and partners' plans where it was computed)
         self.hessians: list[tuple | None] = [None] * self.n
-        self.sqp_converged = [False] * self.n  # the last best response is exactly optimal
         self.partners = [sorted({it.j if it.i == p else it.i for it in problem.interactions
                                  if it.involves(p)}) for p in range(self.n)]
 
@@ -126,7 +123,6 @@ class _Game:
         self.gain[p] = (out.cost0 - out.cost) / max(abs(out.cost0), 1e-9)
         # p's cost is now known for the current plans; its partners' costs are not
         self.known_cost[p] = out.cost
-        self.sqp_converged[p] = out.converged and not obj.coupled  # an exact model: optimal
         for q in self.partners[p]:
             self.known_cost[q] = None
         if out.hessian is not None:
@@ -188,8 +184,7 @@ def _iterate(game: _Game, plans: list[Plan], deadline: float | None, max_iter: i
         if record_costs:
             history.append(game.costs(plans))
         per_iteration = max(per_iteration, time.perf_counter() - start)
-        if (res < gs.nash_tol or (res < gs.nash_cost_guard and max(game.gain) < gs.nash_cost_rtol)
-                or (game.n == 1 and game.sqp_converged[0])):  # one free player: exact optimum
+        if res < gs.nash_tol or (res < gs.nash_cost_guard and max(game.gain) < gs.nash_cost_rtol):
             status = "converged"
             break
     return plans, residuals, history, status

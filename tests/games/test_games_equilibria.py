@@ -54,9 +54,9 @@ def test_decoupled_game_gives_own_optimum_in_one_iteration(gs, ms):
     assert result.plans[1].speeds[-1] > players[1].v0
 
 
-def test_a_single_player_stops_when_its_best_response_has_converged(gs, ms):
-    """A vehicle alone (the controller's solo solve) is one best response: a warm start from its
-    optimum takes one QP; a free vehicle's model is exact, one QP from any start."""
+def test_a_single_player_game_is_its_best_response(gs, ms):
+    """A vehicle alone (the controller's solo solve) is one best response: cold, it ends near the
+    stand-alone best response; warm from that, one QP confirms it."""
     lead = (15.0 + 4.0 * 0.1 * np.arange(1, gs.steps + 1), np.full(gs.steps, 4.0))  # [m], [m/s]
     problem = Problem((Player(0.0, 8.0, 0.5, leader=lead),))
     cold = nash_equilibrium(problem, gs, ms)
@@ -68,12 +68,7 @@ def test_a_single_player_stops_when_its_best_response_has_converged(gs, ms):
     warm = nash_equilibrium(problem, gs, ms, warm_start=cold.plans)
     assert (warm.status, warm.iterations, warm.qp_count) == ("converged", 1, 1)
     assert warm.costs[0] <= cold.costs[0] + 1e-9
-    # a free vehicle started from another plan (a game's, say: braking): its model is exact, so
-    # one QP is its optimum and no second one is spent to confirm it
-    free = Problem((Player(0.0, 6.0, 0.5),))
-    again = nash_equilibrium(free, gs, ms, warm_start=[np.full(gs.steps, -1.0)])
-    assert (again.status, again.iterations, again.qp_count) == ("converged", 1, 1)
-    assert again.costs[0] == pytest.approx(best_response(free, 0, None, gs, ms).cost, rel=1e-6)
+
 
 
 def _min_lateral_ttc(problem, result, ms):
