@@ -741,8 +741,9 @@ class GameController:
         A vehicle in no game minimises its own cost (J_e, comfort, and J_log against its leader's
         predicted trajectory). If its measured state is where its last plan put it and the
         leader's prediction is the one it answered at its last solve (shifted: the same
-        trajectory seen later; within ``solo_leader_tol``), the problem is that solve's problem
-        moved on in time, and the shifted optimal plan is optimal again for all but its appended
+        trajectory seen later; within ``solo_leader_tol``; or it moved only where J_log is zero
+        along the plan, see ``_leader_inactive``), the problem is that solve's problem moved on
+        in time, and the shifted optimal plan is optimal again for all but its appended
         last steps. So it is solved again only when an input changed, after
         ``free_resolve_steps`` steps at the latest (1 = always), or when the shifted plan would
         leave the speed limits. A free vehicle (no leader) is the special case with nothing to
@@ -768,12 +769,27 @@ class GameController:
             s_now, v_now = player.leader
             m = len(s_now) - lag
             tol = self.gs.solo_leader_tol
-            if (m <= 0 or np.abs(s_now[:m] - s_then[lag:]).max() > tol
-                    or np.abs(v_now[:m] - v_then[lag:]).max() > tol):
+            if m <= 0:
+                return False
+            moved = (np.abs(s_now[:m] - s_then[lag:]).max() > tol
+                     or np.abs(v_now[:m] - v_then[lag:]).max() > tol)
+            # a moved prediction matters only where it enters the cost: J_log is zero along a
+            # plan that is never faster than the leader and never overlaps it, under the old
+            # prediction (so the plan did not answer it) and the new one (so it need not)
+            if moved and not (self._leader_inactive(plan, s_then[lag:], v_then[lag:])
+                              and self._leader_inactive(plan, s_now, v_now)):
                 return False
         self.plans[vid] = self._from_state(world, k, plan.accelerations)
         self._solo_inputs[vid] = (age + 1, option, last_leader)
         return True
+
+    def _leader_inactive(self, plan: Plan, s_lead: np.ndarray, v_lead: np.ndarray) -> bool:
+        """True when J_log (Eqs. 15-18) is zero along ``plan`` against a leader predicted at
+        ``s_lead`` (follower frame, front) [m] and ``v_lead`` [m/s] over the plan's first steps:
+        the follower is never faster than the leader (TTC_log infinite) and never overlaps it."""
+        n = len(s_lead)
+        v, s = plan.speeds[1:n + 1], plan.positions[1:n + 1]
+        return bool(np.all(v <= v_lead) and np.all(s_lead - self.model.vehicle_length - s >= 0.0))
 
     def _shifted(self, plans: tuple[Plan, ...]) -> tuple[Plan, ...]:
         return tuple(self._shift(p) for p in plans)

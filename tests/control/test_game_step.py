@@ -215,3 +215,38 @@ def test_a_leader_on_a_parting_path_stops_counting_past_the_shared_stretch(contr
             assert np.allclose(s_pred[~beyond], coasting[~beyond])
         else:
             assert np.allclose(s_pred, coasting)
+
+
+def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_solve(controller, paths, monkeypatch):
+    """The follower is slower than its leader all along its plan (J_log is zero); the leader then
+    drives 1 m/s faster than its plan said. Its prediction moved by far more than
+    solo_leader_tol, but only away from the follower: the follower's problem is unchanged where
+    it has a cost, so its plan is reused, shifted."""
+    calls = []
+    real = game_module.nash_equilibrium
+
+    def counting(problem, *a, **k):
+        calls.append(problem.players[0].name)
+        return real(problem, *a, **k)
+
+    monkeypatch.setattr(game_module, "nash_equilibrium", counting)
+    path = "south_middle_straight_middle"
+    s_stop = paths[path].s_stop
+
+    def world_at(t, s_lead, v_lead, s_follow, v_follow):
+        return _world(paths, t, [("lead", path, s_lead, v_lead), ("follow", path, s_follow, v_follow)])
+
+    controller.decide(world_at(0.0, s_stop - 60.0, 12.0, s_stop - 80.0, 7.0), time.perf_counter() + 10.0)
+    assert calls.count("follow") == 1
+    lead, follow = controller.plans["lead"], controller.plans["follow"]
+    assert np.all(follow.speeds < lead.speeds)  # never closing in: J_log is zero along the plan
+    w = world_at(0.1, float(lead.positions[1]), float(lead.speeds[1]) + 1.0,
+                 float(follow.positions[1]), float(follow.speeds[1]))
+    controller.decide(w, time.perf_counter() + 10.0)
+    assert calls.count("follow") == 1  # reused
+    # a leader that drops below the follower's planned speed makes J_log active: solve again
+    lead, follow = controller.plans["lead"], controller.plans["follow"]
+    w = world_at(0.2, float(lead.positions[1]), float(follow.speeds[1]) - 2.0,
+                 float(follow.positions[1]), float(follow.speeds[1]))
+    controller.decide(w, time.perf_counter() + 10.0)
+    assert calls.count("follow") == 2
