@@ -63,7 +63,8 @@ from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.models.prediction import all_pairs
 from intersection_cosim.models.risk import event_trigger
-from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, load_conflict_table
+from intersection_cosim.network.conflicts import (KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING,
+                                                  load_conflict_table)
 from intersection_cosim.network.spec import LANE_INDEX, LANE_USE, IntersectionSpec
 
 log = logging.getLogger(__name__)

@@ -108,7 +108,8 @@ class GameSettings:
         return int(round(self.horizon / self.dt))
 
     def check(self) -> list[tuple[str, str]]:
-        problems = positive(self, "free_resolve_steps", "solo_max_iter", "lane_choice_period", "horizon", "dt", "a_max",
+        problems = positive(self, "free_resolve_steps", "solo_max_iter", "lane_choice_period",
+                            "horizon", "dt", "a_max",
                             "comfort_brake", "nash_tol", "nash_max_iter", "sqp_steps_per_iteration",
                             "stackelberg_tol", "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
                             "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",

@@ -217,7 +217,8 @@ def test_a_leader_on_a_parting_path_stops_counting_past_the_shared_stretch(contr
             assert np.allclose(s_pred, coasting)
 
 
-def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_solve(controller, paths, monkeypatch):
+def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_solve(controller, paths,
+                                                                                     monkeypatch):
     """The follower is slower than its leader all along its plan (J_log is zero); the leader then
     drives 1 m/s faster than its plan said. Its prediction moved by far more than
     solo_leader_tol, but only away from the follower: the follower's problem is unchanged where
@@ -250,3 +251,44 @@ def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_s
                  float(follow.positions[1]), float(follow.speeds[1]))
     controller.decide(w, time.perf_counter() + 10.0)
     assert calls.count("follow") == 2
+
+
+def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeypatch):
+    """Real-time iteration: with solo_max_iter = 1 a follower closing fast on a slow leader does
+    not converge in one SQP step; it applies that plan and solves again (from it) at the next
+    period, until it has converged."""
+    from intersection_cosim.control.base import ControlContext
+    from intersection_cosim.control.game import GameController
+    from intersection_cosim.games.settings import GameSettings
+    from intersection_cosim.models.settings import ModelSettings
+
+    c = GameController("nash")
+    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
+                           solver=GameSettings(solo_max_iter=1), etm=True))
+    solves = []  # (control step, status, iterations) of the follower's solo solves
+    real = game_module.nash_equilibrium
+    step = 0
+
+    def recording(problem, *a, **k):
+        result = real(problem, *a, **k)
+        if problem.players[0].name == "follow":
+            solves.append((step, result.status, result.iterations))
+        return result
+
+    monkeypatch.setattr(game_module, "nash_equilibrium", recording)
+    path = "south_middle_straight_middle"
+    s_stop = paths[path].s_stop
+    world = _world(paths, 0.0, [("lead", path, s_stop - 60.0, 3.0), ("follow", path, s_stop - 75.0, 9.0)])
+    for step in range(8):
+        c.decide(world, time.perf_counter() + 10.0)
+        lead, follow = c.plans["lead"], c.plans["follow"]
+        world = _world(paths, 0.1 * (step + 1), [
+            ("lead", path, float(lead.positions[1]), float(lead.speeds[1])),
+            ("follow", path, float(follow.positions[1]), float(follow.speeds[1]))])
+    assert solves[0] == (0, "iteration cap", 1)  # one SQP step, not converged, applied
+    assert all(it == 1 for _, _, it in solves)  # never more than solo_max_iter per period
+    assert any(st == "converged" for _, st, _ in solves)
+    steps = [n for n, _, _ in solves]
+    for n, st, _ in solves[:-1]:
+        if st != "converged":
+            assert n + 1 in steps  # an unconverged plan is never reused: the next period solves
