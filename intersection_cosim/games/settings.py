@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from intersection_cosim.settings import non_negative, positive
 
 SCHEMES = ("gauss-seidel", "jacobi")
+YIELD_ORDERS = ("tcp", "plan")
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,11 @@ class GameSettings:
     safety_filter: bool = True  # [-] check every applied acceleration against collision
     safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
+    yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
+    #                          junction: "tcp" = smaller time to the crossing at the current speed
+    #                          (the paper's leader rule, Section IV-D; first come, first served),
+    #                          "plan" = earlier arrival by this step's plans (the plan that
+    #                          accelerates harder claims the crossing)
     clear_accel: float = 1.0  # [m/s^2] box rule: a vehicle standing (below clear_speed) inside a
     #                           crossing that another vehicle waits for drives out at least this hard
     clear_speed: float = 1.0  # [m/s]
@@ -129,6 +135,8 @@ class GameSettings:
             problems.append(("a_min", "must be < 0"))
         if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:
             problems.append(("horizon", "must be a whole number of steps dt"))
+        if self.yield_order not in YIELD_ORDERS:
+            problems.append(("yield_order", f"must be one of {', '.join(YIELD_ORDERS)}"))
         if self.scheme not in SCHEMES:
             problems.append(("scheme", f"must be one of {', '.join(SCHEMES)}"))
         if not self.trust_region_min <= self.trust_region <= self.trust_region_max:

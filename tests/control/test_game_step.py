@@ -6,8 +6,12 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control import game as game_module
-from intersection_cosim.control.base import World
+from intersection_cosim.control.base import ControlContext, World
+from intersection_cosim.control.game import GameController
+from intersection_cosim.control.safety import occupancy
 from intersection_cosim.games.problem import Plan
+from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.models.settings import ModelSettings
 
 LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
 STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
@@ -257,10 +261,6 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
     """Real-time iteration: with solo_max_iter = 1 a follower closing fast on a slow leader does
     not converge in one SQP step; it applies that plan and solves again (from it) at the next
     period, until it has converged."""
-    from intersection_cosim.control.base import ControlContext
-    from intersection_cosim.control.game import GameController
-    from intersection_cosim.games.settings import GameSettings
-    from intersection_cosim.models.settings import ModelSettings
 
     c = GameController("nash")
     c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
@@ -292,3 +292,32 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
     for n, st, _ in solves[:-1]:
         if st != "converged":
             assert n + 1 in steps  # an unconverged plan is never reused: the next period solves
+
+
+@pytest.mark.parametrize("order", ["tcp", "plan"])
+def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
+    """Case 1 A in miniature: A is nearer its crossing in time at its current speed (tcp), B is
+    slower but its plan accelerates harder and reaches the crossing first (plan). With the
+    default order ("tcp", the paper's leader rule) B waits at its stop line; with "plan", A does."""
+    # the trigger off (gamma_sf huge): no game, only the solo plans and the filter decide
+    model = ModelSettings(gamma_sf=1e12)
+    c = GameController("nash")
+    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=model, control_period=0.1,
+                           solver=GameSettings(yield_order=order), etm=True))
+    t = c.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
+    # A: 14 m from its zone at 7 m/s (2.0 s); B: 9 m from its zone at 4 m/s (2.25 s), but B's
+    # solo plan accelerates from far below v_max and gets there first within the horizon
+    world = _world(paths, 0.0, [("A", LEFT, zone_a - 14.0, 7.0), ("B", STRAIGHT, zone_b - 9.0, 4.0)])
+    world.kappa[:] = (0.1, 1.0)
+    d = c.decide(world, time.perf_counter() + 10.0)
+    assert d.games == 0
+    plan_a, plan_b = c.plans["A"], c.plans["B"]
+    t_a, t_b = occupancy(plan_a, zone_a, zone_a + 1.0)[0], occupancy(plan_b, zone_b, zone_b + 1.0)[0]
+    assert t_b < t_a  # by the plans, B is first ...
+    assert 14.0 / 7.0 < 9.0 / 4.0  # ... by the current speeds, A is
+    waits = "B" if order == "tcp" else "A"
+    goes = "A" if waits == "B" else "B"
+    assert d.accel[waits] < 0.0 < d.accel[goes]
+    assert d.accel[goes] == pytest.approx(float(c.plans[goes].accelerations[0]))  # not filtered

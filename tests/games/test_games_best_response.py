@@ -23,9 +23,9 @@ from intersection_cosim.models.cost import (efficiency_cost, lateral_safety_cost
 def test_settings_defaults_check_clean(gs):
     assert gs.check() == []
     assert gs.steps == 30
-    bad = GameSettings(horizon=3.05, a_min=1.0, scheme="newton", comfort_brake=5.0)
+    bad = GameSettings(horizon=3.05, a_min=1.0, scheme="newton", comfort_brake=5.0, yield_order="fifo")
     fields = {f for f, _ in bad.check()}
-    assert {"horizon", "a_min", "scheme", "comfort_brake"} <= fields
+    assert {"horizon", "a_min", "scheme", "comfort_brake", "yield_order"} <= fields
 
 
 def test_rollout_is_exact_discretisation(gs):
