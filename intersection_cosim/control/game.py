@@ -12,6 +12,8 @@ Every control period, for the vehicles that are ready to enter or passing the co
    enters the follower's own cost as J_log (Eqs. 15-18) against the leader's predicted trajectory:
    its previous plan shifted by one period when it is controlled, constant speed otherwise. The
    leader does not care about its follower (its cost has no term for it), so this is not a game.
+   On two paths that part (same approach lane, different exits) the leader counts only until its
+   rear has left the shared stretch (``_Leader.until``).
 3. **Games.** Each triggered pair plays the pairwise game of Algorithm 1 (Nash: iterated best
    response; Stackelberg: the vehicle with the smaller TCP leads), warm-started from the pair's
    previous plans shifted by one period. When a player may still choose its exit lane, the pair's
