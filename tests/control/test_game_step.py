@@ -71,7 +71,11 @@ def test_without_time_left_games_are_deferred_and_the_last_plans_kept(controller
         d.accel[v] == pytest.approx(float(planned[v].accelerations[1])) for v in ("L", "S"))
 
 
-def test_a_solo_follower_solves_again_only_when_its_leader_prediction_moves(controller, paths, monkeypatch):
+LANE = "south_middle_straight_middle"  # northbound, straight on: a leader and its follower
+
+
+def _count_solo_solves(monkeypatch) -> list[str]:
+    """The names of the players of every solo solve the controller makes from now on."""
     calls = []
     real = game_module.nash_equilibrium
 
@@ -80,11 +84,15 @@ def test_a_solo_follower_solves_again_only_when_its_leader_prediction_moves(cont
         return real(problem, *a, **k)
 
     monkeypatch.setattr(game_module, "nash_equilibrium", counting)
-    path = "south_middle_straight_middle"
-    s_stop = paths[path].s_stop
+    return calls
+
+
+def test_a_solo_follower_solves_again_only_when_its_leader_prediction_moves(controller, paths, monkeypatch):
+    calls = _count_solo_solves(monkeypatch)
+    s_stop = paths[LANE].s_stop
 
     def world_at(t, s_lead, v_lead, s_follow, v_follow):
-        return _world(paths, t, [("lead", path, s_lead, v_lead), ("follow", path, s_follow, v_follow)])
+        return _world(paths, t, [("lead", LANE, s_lead, v_lead), ("follow", LANE, s_follow, v_follow)])
 
     d = controller.decide(world_at(0.0, s_stop - 60.0, 8.0, s_stop - 80.0, 8.0), time.perf_counter() + 10.0)
     assert d.games == 0 and calls.count("follow") == 1
@@ -227,19 +235,11 @@ def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_s
     drives 1 m/s faster than its plan said. Its prediction moved by far more than
     solo_leader_tol, but only away from the follower: the follower's problem is unchanged where
     it has a cost, so its plan is reused, shifted."""
-    calls = []
-    real = game_module.nash_equilibrium
-
-    def counting(problem, *a, **k):
-        calls.append(problem.players[0].name)
-        return real(problem, *a, **k)
-
-    monkeypatch.setattr(game_module, "nash_equilibrium", counting)
-    path = "south_middle_straight_middle"
-    s_stop = paths[path].s_stop
+    calls = _count_solo_solves(monkeypatch)
+    s_stop = paths[LANE].s_stop
 
     def world_at(t, s_lead, v_lead, s_follow, v_follow):
-        return _world(paths, t, [("lead", path, s_lead, v_lead), ("follow", path, s_follow, v_follow)])
+        return _world(paths, t, [("lead", LANE, s_lead, v_lead), ("follow", LANE, s_follow, v_follow)])
 
     controller.decide(world_at(0.0, s_stop - 60.0, 12.0, s_stop - 80.0, 7.0), time.perf_counter() + 10.0)
     assert calls.count("follow") == 1
@@ -276,7 +276,7 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
         return result
 
     monkeypatch.setattr(game_module, "nash_equilibrium", recording)
-    path = "south_middle_straight_middle"
+    path = LANE
     s_stop = paths[path].s_stop
     world = _world(paths, 0.0, [("lead", path, s_stop - 60.0, 3.0), ("follow", path, s_stop - 75.0, 9.0)])
     for step in range(8):
