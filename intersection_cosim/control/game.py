@@ -353,7 +353,8 @@ class GameController:
         vehicles stopped in each other's zones): a vehicle inside the junction ranks by the time
         it entered it (first in, first out, like a queue), ahead of every vehicle not yet in;
         among those, the one that reaches the crossing first ranks higher (``yield_order``: at
-        its current speed, the paper's leader rule, or by the plans). The lower-ranked one
+        its current speed, the paper's leader rule, except for a pair that played its game, which
+        keeps the game's order; or by the plans). The lower-ranked one
         yields if it can still stay out of its zone (waiting at its stop line if it has not
         reached it: AIM's rule, enter only to clear); else the higher-ranked one yields if it
         can; else both are in (or committed) and the lower-ranked one holds back as hard as it
@@ -378,11 +379,14 @@ class GameController:
             in_j, out_j = occupancy(pj, *lat.zone_j)
             if in_i >= out_j + gs.safety_time_gap or in_j >= out_i + gs.safety_time_gap:
                 continue  # the plans keep the crossing clear
-            if gs.yield_order == "tcp":  # time to the zone at the current speed (Eqs. 21-22)
+            if gs.yield_order == "tcp" and not lat.play:
+                # time to the zone at the current speed (Eqs. 21-22); a pair that played its
+                # game this step keeps the equilibrium's order (its plans), so the filter never
+                # overrules a game's decision, it only enforces it
                 floor = self.model.tcp_speed_floor
                 ti = (lat.zone_i[0] - float(world.s[ki])) / max(float(world.v[ki]), floor)
                 tj = (lat.zone_j[0] - float(world.s[kj])) / max(float(world.v[kj]), floor)
-            else:  # "plan": when the plans reach the zone
+            else:  # "plan" (or a game pair): when the plans reach the zone
                 ti, tj = in_i, in_j
             lower_first = sorted(((self._rank(world, ki, ti), ki, lat.ri, lat.zone_i[0]),
                                   (self._rank(world, kj, tj), kj, lat.rj, lat.zone_j[0])), reverse=True)

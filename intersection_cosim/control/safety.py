@@ -17,8 +17,9 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   other's zones, a deadlock): a vehicle inside the junction ranks by when it entered it (first
   in, first out), ahead of every vehicle not yet in; among those, the one that would reach the
   crossing first ranks higher (by default at its current speed: the smaller time to the
-  crossing, the paper's rule for the Stackelberg leader; ``GameSettings.yield_order = "plan"``
-  ranks by this step's plans instead). The lower-ranked one yields if it can still stay out of
+  crossing, the paper's rule for the Stackelberg leader, except that a pair that played its
+  game keeps the game's order, by its plans; ``GameSettings.yield_order = "plan"`` ranks every
+  pair by this step's plans). The lower-ranked one yields if it can still stay out of
   its zone: it brakes to stop ``safety_margin`` before it (a = -v^2 / 2d, at most |a_min|), or at its stop
   line if it has not reached it (as in AIM, a vehicle enters only to clear: one stopped inside
   the junction before one crossing may block another). Else the higher-ranked one yields if it

@@ -101,9 +101,10 @@ class GameSettings:
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
     yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
     #                          junction: "tcp" = smaller time to the crossing at the current speed
-    #                          (the paper's leader rule, Section IV-D; first come, first served),
-    #                          "plan" = earlier arrival by this step's plans (the plan that
-    #                          accelerates harder claims the crossing)
+    #                          (the paper's leader rule, Section IV-D; first come, first served;
+    #                          a pair that played its game keeps the game's order, by its plans),
+    #                          "plan" = earlier arrival by this step's plans for every pair (the
+    #                          plan that accelerates harder claims the crossing)
     clear_accel: float = 1.0  # [m/s^2] box rule: a vehicle standing (below clear_speed) inside a
     #                           crossing that another vehicle waits for drives out at least this hard
     clear_speed: float = 1.0  # [m/s]

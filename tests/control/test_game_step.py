@@ -321,3 +321,24 @@ def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
     goes = "A" if waits == "B" else "B"
     assert d.accel[waits] < 0.0 < d.accel[goes]
     assert d.accel[goes] == pytest.approx(float(c.plans[goes].accelerations[0]))  # not filtered
+
+
+def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(controller, paths):
+    """B is nearer the crossing in time at its current speed (1.71 s against A's 2.0 s), but the
+    pair's game lets A pass first, and its plans still pass within safety_time_gap. The filter
+    keeps the game's order (for a pair without a game it would rank B first): A drives its
+    equilibrium plan, B brakes below its own."""
+    t = controller.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    zone_a = (float(t.zone_in[p, q]), float(t.zone_out[p, q]))
+    zone_b = (float(t.zone_in[q, p]), float(t.zone_out[q, p]))
+    world = _world(paths, 0.0, [("A", LEFT, zone_a[0] - 8.0, 4.0), ("B", STRAIGHT, zone_b[0] - 12.0, 7.0)])
+    world.kappa[:] = (0.6, 0.8)
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    assert d.games == 1
+    plan_a, plan_b = controller.plans["A"], controller.plans["B"]
+    (in_a, out_a), (in_b, out_b) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
+    assert 12.0 / 7.0 < 8.0 / 4.0 and in_a < in_b  # TCP order B, A; the game's order A, B
+    assert in_b < out_a + controller.gs.safety_time_gap  # too close: the filter must order them
+    assert d.accel["A"] == pytest.approx(float(plan_a.accelerations[0]))  # A goes as the game says
+    assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
