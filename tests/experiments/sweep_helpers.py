@@ -30,13 +30,15 @@ def read_table(out: Path) -> pd.DataFrame:
 
 
 def wait_for_a_finished_run(out: Path, proc: subprocess.Popen, timeout: float = 90.0) -> None:
-    """Return once a run folder under ``out`` holds summary.json, ``proc`` has ended, or after
-    ``timeout`` seconds."""
+    """Return once a finished run folder under ``out`` holds summary.json, ``proc`` has ended, or
+    after ``timeout`` seconds. A run writes into a hidden temporary folder and renames it when
+    done; pathlib's glob matches hidden names, so those are skipped (a run interrupted between
+    its summary and its rename is cleaned up, not kept)."""
     from intersection_cosim.experiments.sweep import RUNS_DIR
 
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline and proc.poll() is None:
-        if list(Path(out).glob(f"{RUNS_DIR}/*/summary.json")):
+        if [p for p in Path(out).glob(f"{RUNS_DIR}/*/summary.json") if not p.parent.name.startswith(".")]:
             return
         time.sleep(0.02)
 
