@@ -65,8 +65,9 @@ from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.models.prediction import all_pairs
 from intersection_cosim.models.risk import event_trigger
+from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.network.conflicts import (KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING,
-                                                  load_conflict_table)
+                                                  load_conflict_table, point_zone)
 from intersection_cosim.network.spec import LANE_INDEX, LANE_USE, IntersectionSpec
 
 log = logging.getLogger(__name__)
@@ -270,15 +271,16 @@ class GameController:
             decisions.exit_lane[vid] = option
 
     def _urgency(self, world: World, game: _Game) -> tuple[float, int, int]:
-        """[s] the smaller time to its conflict point of the pair (TCP, Eq. 8): games are
+        """[s] the smaller time to its conflict point of the pair (TCP, Eqs. 21-22): games are
         played in this order, most urgent first (ties by vehicle index, deterministic)."""
         floor = self.model.tcp_speed_floor
+        s_a, v_a, s_b, v_b = (float(x) for x in (world.s[game.a], world.v[game.a], world.s[game.b], world.v[game.b]))
         tcp = math.inf
         for inters in game.combos.values():
             for it in inters:
                 if it.lateral:
-                    tcp = min(tcp, (it.s_cp_i - float(world.s[game.a])) / max(float(world.v[game.a]), floor),
-                              (it.s_cp_j - float(world.s[game.b])) / max(float(world.v[game.b]), floor))
+                    tcp = min(tcp, time_to_conflict_point(it.s_cp_i - s_a, v_a, floor),
+                              time_to_conflict_point(it.s_cp_j - s_b, v_b, floor))
         return (tcp, game.a, game.b)
 
     def _shift(self, plan: Plan) -> Plan:
@@ -384,8 +386,8 @@ class GameController:
                 # game this step keeps the equilibrium's order (its plans), so the filter never
                 # overrules a game's decision, it only enforces it
                 floor = self.model.tcp_speed_floor
-                ti = (lat.zone_i[0] - float(world.s[ki])) / max(float(world.v[ki]), floor)
-                tj = (lat.zone_j[0] - float(world.s[kj])) / max(float(world.v[kj]), floor)
+                ti = time_to_conflict_point(lat.zone_i[0] - float(world.s[ki]), float(world.v[ki]), floor)
+                tj = time_to_conflict_point(lat.zone_j[0] - float(world.s[kj]), float(world.v[kj]), floor)
             else:  # "plan" (or a game pair): when the plans reach the zone
                 ti, tj = in_i, in_j
             lower_first = sorted(((self._rank(world, ki, ti), ki, lat.ri, lat.zone_i[0]),
@@ -481,7 +483,7 @@ class GameController:
             if len(opts) > 1:
                 base = pid.rsplit("_", 1)[0]
                 if self.paths[pid].s_stop - float(world.s[k]) > self.gs.lane_choice_range:
-                    held = self.options.get(world.ids[k], self.paths[pid].exit_lane)
+                    held = self._held_option(world, k)
                     opts = (held if held in opts else opts[0],)  # too far out to choose yet
                 for o in opts:
                     vehicle.append(k)
@@ -519,7 +521,7 @@ class GameController:
         zin_i, zout_i = table.zone_in[p_i, p_j], table.zone_out[p_i, p_j]
         zin_j, zout_j = table.zone_in[p_j, p_i], table.zone_out[p_j, p_i]
         clear = ms.conflict_clearance
-        half, length = ms.vehicle_width / 2, ms.vehicle_length
+        width, length = ms.vehicle_width, ms.vehicle_length
         for m in range(len(risk.i)):
             ri, rj = int(risk.i[m]), int(risk.j[m])
             if risk.leader_follower[m]:
@@ -548,7 +550,7 @@ class GameController:
                 zone_i, zone_j = (float(zin_i[m]), float(zout_i[m])), (float(zin_j[m]), float(zout_j[m]))
             else:
                 kind = "confluence"
-                zone_i, zone_j = (s_i - half, s_i + half + length), (s_j - half, s_j + half + length)
+                zone_i, zone_j = point_zone(s_i, length, width), point_zone(s_j, length, width)
             if s_i_now[m] > zone_i[1] or s_j_now[m] > zone_j[1]:
                 continue  # one of them has cleared the crossing
             # a vehicle that has left the junction (front past its exit, handed back to SUMO) may

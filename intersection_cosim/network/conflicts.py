@@ -235,6 +235,18 @@ def _fronts(path: MovementPath, length: float) -> np.ndarray:
     return np.arange(path.s_stop - _ZONE_STEP, min(path.s_exit + length + _ZONE_STEP, path.length), _ZONE_STEP)
 
 
+def swept_area(path: MovementPath, length: float, width: float) -> cKDTree:
+    """KD-tree of a grid of points over the bodies on ``path`` at every front position through
+    the junction (``_ZONE_STEP`` apart): the area its vehicles sweep."""
+    return cKDTree(_body_points(path, _fronts(path, length), length, width, outline=False).reshape(-1, 2))
+
+
+def point_zone(s_cp: float, length: float, width: float) -> tuple[float, float]:
+    """[m] front arc lengths over which a body occupies a conflict point at ``s_cp``: from the
+    front half a width before it until the rear is half a width past it."""
+    return s_cp - width / 2, s_cp + width / 2 + length
+
+
 def conflict_zone(a: MovementPath, b: MovementPath, length: float = 4.5, width: float = 1.8,
                   swept_b: cKDTree | None = None) -> tuple[float, float] | None:
     """[m] ``(zone_in, zone_out)``: the front arc lengths on ``a`` between which a body on ``a``
@@ -247,7 +259,7 @@ def conflict_zone(a: MovementPath, b: MovementPath, length: float = 4.5, width: 
     spacing, so the zone errs a little on the long side). ``swept_b``: that grid's KD-tree, if
     already built."""
     if swept_b is None:
-        swept_b = cKDTree(_body_points(b, _fronts(b, length), length, width, outline=False).reshape(-1, 2))
+        swept_b = swept_area(b, length, width)
     s_front = _fronts(a, length)
     pts = _body_points(a, s_front, length, width, outline=True)
     dist, _ = swept_b.query(pts.reshape(-1, 2), distance_upper_bound=1.0)
@@ -300,12 +312,10 @@ class ConflictTable:
             s_a[p, q], s_b[p, q], x[p, q], y[p, q] = cp.s_a, cp.s_b, cp.x, cp.y
             if cp.kind == "cross":
                 if b not in swept:
-                    pb = paths[b]
-                    swept[b] = cKDTree(_body_points(pb, _fronts(pb, vehicle_length), vehicle_length,
-                                                    vehicle_width, outline=False).reshape(-1, 2))
+                    swept[b] = swept_area(paths[b], vehicle_length, vehicle_width)
                 zone = conflict_zone(paths[a], paths[b], vehicle_length, vehicle_width, swept[b])
                 if zone is None:  # centre lines within a width but outlines apart: the point itself
-                    zone = (cp.s_a - vehicle_width / 2, cp.s_a + vehicle_width / 2 + vehicle_length)
+                    zone = point_zone(cp.s_a, vehicle_length, vehicle_width)
                 zone_in[p, q], zone_out[p, q] = zone
         return cls(ids=ids, index=index, kind=kind, s_a=s_a, s_b=s_b, x=x, y=y,
                    zone_in=zone_in, zone_out=zone_out,
