@@ -57,7 +57,7 @@ class Job:
     kappa: tuple[tuple[str, float], ...]  # (vehicle id, kappa) overrides
     run_dir: str  # absolute path of the run folder (finished <=> it holds summary.json)
     failed_file: str  # absolute path of the failure record
-    # ([scenario] field, value) overrides, e.g. (("duration", 60.0),); see SCENARIO_OVERRIDES
+    # (field, value) overrides, e.g. (("duration", 60.0),); see OVERRIDE_TABLES
     overrides: tuple[tuple[str, float], ...] = ()
 
     def to_json(self) -> str:
@@ -80,7 +80,6 @@ class Job:
 # Fields a sweep may override for all its runs (``compare --duration``, ``--budget-ms``), with
 # the scenario-file table each belongs to.
 OVERRIDE_TABLES = {"duration": "scenario", "budget_ms": "controller"}
-SCENARIO_OVERRIDES = tuple(OVERRIDE_TABLES)
 
 
 def job_scenario(job: Job):

@@ -227,10 +227,10 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
               seeds: str | None = None, overrides: dict[str, float] | None = None) -> SweepSpec:
     """Validate the command line's sweep spec against the scenario; raise InputError before any run.
 
-    ``overrides``: [scenario] / [controller] fields set for every run (``executors.SCENARIO_OVERRIDES``), e.g.
+    ``overrides``: [scenario] / [controller] fields set for every run (``executors.OVERRIDE_TABLES``), e.g.
     ``{"duration": 60.0, "budget_ms": 20.0}``; part of the sweep's identity.
     """
-    from intersection_cosim.experiments.executors import SCENARIO_OVERRIDES
+    from intersection_cosim.experiments.executors import OVERRIDE_TABLES
 
     from intersection_cosim.scenario import load_scenario
 
@@ -246,8 +246,8 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
     seed_list = parse_seeds(seeds) if seeds else (scn.scenario.seed,)
     fixed = []
     for name, value in (overrides or {}).items():
-        if name not in SCENARIO_OVERRIDES:
-            raise InputError(f"--{name}", name, value, f"cannot be overridden (only {', '.join(SCENARIO_OVERRIDES)})")
+        if name not in OVERRIDE_TABLES:
+            raise InputError(f"--{name}", name, value, f"cannot be overridden (only {', '.join(OVERRIDE_TABLES)})")
         if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
             raise InputError(f"--{name}", name, value, "must be a number > 0")
         fixed.append((name, float(value)))
