@@ -355,8 +355,12 @@ class GameController:
         vehicles stopped in each other's zones): a vehicle inside the junction ranks by the time
         it entered it (first in, first out, like a queue), ahead of every vehicle not yet in;
         among those, the one that reaches the crossing first ranks higher (``yield_order``: at
-        its current speed, the paper's leader rule, except for a pair that played its game, which
-        keeps the game's order; or by the plans). The lower-ranked one
+        its current speed, the paper's leader rule; or by the plans). A pair that played its
+        game this step keeps the game's order (by its plans) whether or not one of them has
+        entered the junction: a vehicle may enter well before its crossing, on a plan that lets
+        the other pass first, and ranking it first for having entered stops the other short of
+        the crossing while the entered one still waits for it (Case 1 A without the trigger
+        stood for 5 s that way). The lower-ranked one
         yields if it can still stay out of its zone (waiting at its stop line if it has not
         reached it: AIM's rule, enter only to clear); else the higher-ranked one yields if it
         can; else both are in (or committed) and the lower-ranked one holds back as hard as it
@@ -390,8 +394,8 @@ class GameController:
                 tj = time_to_conflict_point(lat.zone_j[0] - float(world.s[kj]), float(world.v[kj]), floor)
             else:  # "plan" (or a game pair): when the plans reach the zone
                 ti, tj = in_i, in_j
-            lower_first = sorted(((self._rank(world, ki, ti), ki, lat.ri, lat.zone_i[0]),
-                                  (self._rank(world, kj, tj), kj, lat.rj, lat.zone_j[0])), reverse=True)
+            lower_first = sorted(((self._rank(world, ki, ti, lat.play), ki, lat.ri, lat.zone_i[0]),
+                                  (self._rank(world, kj, tj, lat.play), kj, lat.rj, lat.zone_j[0])), reverse=True)
             for n, (_rank, k, r, enter) in enumerate(lower_first):
                 a = self._stay_out(world, k, float(self.table.s_stop[rows.pidx[r]]), enter)
                 if a is not None:
@@ -409,13 +413,14 @@ class GameController:
         """A vehicle SUMO drives again (it has left the junction), predicted at constant speed."""
         return self._from_state(world, k, np.zeros(self.gs.steps))
 
-    def _rank(self, world: World, k: int, t_in: float) -> tuple:
+    def _rank(self, world: World, k: int, t_in: float, played: bool = False) -> tuple:
         """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first.
         A vehicle that has left the junction (SUMO drives it, its rear may still be in the
-        crossing) comes first: it cannot yield."""
+        crossing) comes first: it cannot yield. ``played``: the pair played its game this step;
+        the time of entry into the junction does not count then (_guard_crossings)."""
         if world.role[k] == "outside":
             return (-1, 0.0, world.ids[k])
-        entered = self._entered.get(world.ids[k])
+        entered = None if played else self._entered.get(world.ids[k])
         return (0, entered, world.ids[k]) if entered is not None else (1, t_in, world.ids[k])
 
     def _stay_out(self, world: World, k: int, s_stop: float, enter: float) -> float | None:

@@ -342,3 +342,24 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(cont
     assert in_b < out_a + controller.gs.safety_time_gap  # too close: the filter must order them
     assert d.accel["A"] == pytest.approx(float(plan_a.accelerations[0]))  # A goes as the game says
     assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
+
+
+def test_a_games_order_holds_after_the_yielding_vehicle_entered_the_junction(controller, paths):
+    """As above, but B (whose game lets A pass first) entered the junction already, while still
+    12 m from its zone. Ranking B first for having entered (the queue rule for vehicles without
+    a game) would stop A short of the crossing and leave B to creep through on the wait its own
+    plan still had: Case 1 A without the trigger stood for 5 s that way. The game's order holds."""
+    t = controller.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    zone_a = (float(t.zone_in[p, q]), float(t.zone_out[p, q]))
+    zone_b = (float(t.zone_in[q, p]), float(t.zone_out[q, p]))
+    world = _world(paths, 0.0, [("A", LEFT, zone_a[0] - 8.0, 4.0), ("B", STRAIGHT, zone_b[0] - 12.0, 7.0)])
+    world.kappa[:] = (0.6, 0.8)
+    world.role[1] = "passing"
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    assert d.games == 1 and "B" in controller._entered
+    plan_a, plan_b = controller.plans["A"], controller.plans["B"]
+    (in_a, out_a), (in_b, _) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
+    assert in_a < in_b < out_a + controller.gs.safety_time_gap  # the game's order, too close
+    assert d.accel["A"] == pytest.approx(float(plan_a.accelerations[0]))  # A goes as the game says
+    assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
