@@ -323,11 +323,22 @@ def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
     assert d.accel[goes] == pytest.approx(float(c.plans[goes].accelerations[0]))  # not filtered
 
 
-def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(controller, paths):
+def _weak_lateral_controller(paths, net_file):
+    """A Nash controller whose games weigh J_lat lightly (k_lat = 1): their plans pass a crossing
+    closer than safety_time_gap, which the filter must then enforce (at the default k_lat the
+    yielding player already brakes at a_min in its equilibrium plan)."""
+    c = GameController("nash")
+    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(k_lat=1.0),
+                           control_period=0.1, solver=None, etm=True))
+    return c
+
+
+def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(paths, net_file):
     """B is nearer the crossing in time at its current speed (1.71 s against A's 2.0 s), but the
     pair's game lets A pass first, and its plans still pass within safety_time_gap. The filter
     keeps the game's order (for a pair without a game it would rank B first): A drives its
     equilibrium plan, B brakes below its own."""
+    controller = _weak_lateral_controller(paths, net_file)
     t = controller.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a = (float(t.zone_in[p, q]), float(t.zone_out[p, q]))
@@ -344,11 +355,12 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(cont
     assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
 
 
-def test_a_games_order_holds_after_the_yielding_vehicle_entered_the_junction(controller, paths):
+def test_a_games_order_holds_after_the_yielding_vehicle_entered_the_junction(paths, net_file):
     """As above, but B (whose game lets A pass first) entered the junction already, while still
     12 m from its zone. Ranking B first for having entered (the queue rule for vehicles without
     a game) would stop A short of the crossing and leave B to creep through on the wait its own
     plan still had: Case 1 A without the trigger stood for 5 s that way. The game's order holds."""
+    controller = _weak_lateral_controller(paths, net_file)
     t = controller.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a = (float(t.zone_in[p, q]), float(t.zone_out[p, q]))

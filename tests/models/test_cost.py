@@ -20,7 +20,9 @@ from intersection_cosim.models.cost import (
 )
 from intersection_cosim.models.settings import ModelSettings
 
-S = ModelSettings()  # eps = 0.25 s^2, k_log = k_lat = k_lk = 1, k_y = 0.05, k_phi = 0.5, k_e = 0.04, v_max = 10
+# hand values for unit safety weights: eps = 0.25 s^2, k_log = k_lat = k_lk = 1 (the default k_lat is 5),
+# k_phi = 0.5, k_e = 0.04, v_max = 10
+S = ModelSettings(k_lat=1.0)
 
 
 def test_longitudinal_ttc():

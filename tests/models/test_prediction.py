@@ -22,7 +22,7 @@ from intersection_cosim.models.prediction import (
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflicts import KIND_CODE
 
-S = ModelSettings()  # t_p = 3 s, prediction_dt = 0.1 s
+S = ModelSettings(t_p=3.0)  # t_p = 3 s (the default is 4 s), prediction_dt = 0.1 s
 CASE1 = ("south_inner_left_inner", "east_inner_left_inner", "west_inner_left_inner")
 CASE1_S = np.array([125.0, 132.0, 120.0])  # [m] arc lengths of (2, -25), (18, 2), (-30, -2)
 CASE1_V = np.array([5.5, 4.5, 5.0])  # [m/s]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,7 +17,8 @@ from intersection_cosim.models.risk import (
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflicts import KIND_CODE
 
-S = ModelSettings()  # t_p = 3 s, a0 = 1, gamma_sf = 40, conflict_clearance = 4.5 m
+# hand values below are for t_p = 3 s (the default is 4 s); a0 = 1, gamma_sf = 40, clearance 4.5 m
+S = ModelSettings(t_p=3.0)
 A5 = math.exp(0.5)  # field gain a at kappa = 0.5
 CASE1 = ("south_inner_left_inner", "east_inner_left_inner", "west_inner_left_inner")
 CASE1_S = np.array([125.0, 132.0, 120.0])  # [m] (2, -25), (18, 2), (-30, -2) on their paths
@@ -65,21 +67,23 @@ def test_following_risk():
     assert following_risk(25.0, 8.0, 0.5, S) == 0.0
 
 
-def _case1(conflict_table, t, v=CASE1_V, kappa=KAPPA_A):
+def _case1(conflict_table, t, v=CASE1_V, kappa=KAPPA_A, settings=S):
     idx = conflict_table.indices(CASE1)
-    return event_trigger(conflict_table, idx, CASE1_S + v * t, v, kappa, S)
+    return event_trigger(conflict_table, idx, CASE1_S + v * t, v, kappa, settings)
 
 
-def test_case1a_triggers_as_the_vehicles_near_the_conflict_zone(conflict_table):
+@pytest.mark.parametrize("t_p, gammas", [(3.0, (222.7, 255.9)), (4.0, (428.5, 502.5))])
+def test_case1a_triggers_as_the_vehicles_near_the_conflict_zone(conflict_table, t_p, gammas):
     # Constant speeds. V1 reaches the V1-V2 point 0.42 s before V2 and the V1-V3 point 0.51 s
-    # before V3. The opposite left turners V2, V3 never form a pair.
-    start = _case1(conflict_table, 0.0)
+    # before V3. The opposite left turners V2, V3 never form a pair. t_p = 4 s is the default.
+    settings = replace(S, t_p=t_p)
+    start = _case1(conflict_table, 0.0, settings=settings)
     assert list(zip(start.i.tolist(), start.j.tolist())) == [(0, 1), (0, 2)]
     assert start.kind.tolist() == [KIND_CODE["cross"]] * 2
     assert not start.trigger.any()  # V2 is 4.4 s, V3 5.4 s from their points: beyond t_p
     fired = {}
     for t in np.arange(0.0, 8.0, 0.1):
-        r = _case1(conflict_table, t)
+        r = _case1(conflict_table, t, settings=settings)
         for n in range(len(r.i)):
             if r.trigger[n] and (int(r.i[n]), int(r.j[n])) not in fired:
                 fired[(int(r.i[n]), int(r.j[n]))] = (t, float(r.tcp_i[n]), float(r.tcp_j[n]),
@@ -87,19 +91,19 @@ def test_case1a_triggers_as_the_vehicles_near_the_conflict_zone(conflict_table):
     assert set(fired) == {(0, 1), (0, 2)}
     for pair, later_v in (((0, 1), 4.5), ((0, 2), 5.0)):
         t, tcp_1, tcp_other, gamma = fired[pair]
-        # fires once the later vehicle is within t_p of the point, V1 then ~2.5 s from it
-        assert tcp_other == pytest.approx(3.0, abs=0.1) and tcp_1 == pytest.approx(2.5, abs=0.15)
+        # fires once the later vehicle is within t_p of the point, V1 then ~t_p - 0.5 s from it
+        assert tcp_other == pytest.approx(t_p, abs=0.1) and tcp_1 == pytest.approx(t_p - 0.5, abs=0.15)
         assert 0.3 < tcp_other - tcp_1 < 0.6
-        assert gamma == pytest.approx(A5 * later_v**2 * (3.0 - (tcp_other - tcp_1)) ** 2, rel=1e-6)
-    assert fired[(0, 1)][3] == pytest.approx(222.7, abs=0.5)
-    assert fired[(0, 2)][3] == pytest.approx(255.9, abs=0.5)
+        assert gamma == pytest.approx(A5 * later_v**2 * (t_p - (tcp_other - tcp_1)) ** 2, rel=1e-6)
+    assert fired[(0, 1)][3] == pytest.approx(gammas[0], abs=0.5)
+    assert fired[(0, 2)][3] == pytest.approx(gammas[1], abs=0.5)
     # still triggered as V1 enters the point ...
-    r = _case1(conflict_table, 4.0)
+    r = _case1(conflict_table, 4.0, settings=settings)
     assert r.trigger.tolist() == [True, True]
     # ... and off for V1-V2 once V1 is more than the clearance past it
-    r = _case1(conflict_table, 5.0)
+    r = _case1(conflict_table, 5.0, settings=settings)
     assert r.trigger.tolist() == [False, True]
-    assert not _case1(conflict_table, 6.5).trigger.any()
+    assert not _case1(conflict_table, 6.5, settings=settings).trigger.any()
 
 
 def test_no_trigger_when_one_vehicle_is_beyond_its_preview(conflict_table):
