@@ -16,7 +16,9 @@ Every control period, for the vehicles that are ready to enter or passing the co
    rear has left the shared stretch (``_Leader.until``).
 3. **Games.** Each triggered pair plays the pairwise game of Algorithm 1 (Nash: iterated best
    response; Stackelberg: the vehicle with the smaller TCP leads), warm-started from the pair's
-   previous plans shifted by one period. When a player may still choose its exit lane, the pair's
+   previous plans shifted by the periods since they were solved (up to half the horizon), or,
+   for a pair that has not played lately, from the plans its two players drive (what a cold
+   start would first compute again). When a player may still choose its exit lane, the pair's
    continuous game is solved for every combination of exit lanes and a pure equilibrium of the
    resulting matrix game is taken (:func:`~intersection_cosim.games.lane_choice.lane_choice_game`);
    leaving the preferred exit lane costs J_lk (Eq. 23).
@@ -148,6 +150,7 @@ class GameController:
         self.plans: dict[str, Plan] = {}  # plan applied at the last step, per vehicle
         self.options: dict[str, str] = {}  # exit lane chosen at the last step
         self.warm: dict[tuple, tuple[Plan, ...]] = {}  # game or solo key -> its last plans
+        self._warm_at: dict[tuple, float] = {}  # [s] when each warm entry was stored
         self.controlled: set[str] = set()
         self.convergence: list[ConvergenceRecord] = []
         self.filtered = 0  # accelerations the safety filter lowered
@@ -211,6 +214,7 @@ class GameController:
         # Warm starts are keyed ("solo", vehicle, exit) or ("game", vehicle_a, vehicle_b, exit_a, exit_b).
         self.warm = {key: v for key, v in self.warm.items()
                      if all(x in present for x in (key[1:2] if key[0] == "solo" else key[1:3]))}
+        self._warm_at = {key: self._warm_at[key] for key in self.warm}
         leaders, lateral = self._relations(world, rows, active_set)
         self._effective = self._effective_options(world, rows, leaders, lateral)
         games = self._games(rows, lateral)
@@ -355,12 +359,12 @@ class GameController:
         vehicles stopped in each other's zones): a vehicle inside the junction ranks by the time
         it entered it (first in, first out, like a queue), ahead of every vehicle not yet in;
         among those, the one that reaches the crossing first ranks higher (``yield_order``: at
-        its current speed, the paper's leader rule; or by the plans). A pair that played its
-        game this step keeps the game's order (by its plans) whether or not one of them has
-        entered the junction: a vehicle may enter well before its crossing, on a plan that lets
-        the other pass first, and ranking it first for having entered stops the other short of
-        the crossing while the entered one still waits for it (Case 1 A without the trigger
-        stood for 5 s that way). The lower-ranked one
+        its current speed, the paper's leader rule, except for a pair that played its game, which
+        keeps the game's order; or by the plans). The queue rule for vehicles inside holds even
+        against a game's order: a game lets a vehicle into a crossing ahead of one that entered
+        the junction before it, and once the pair's trigger is off (both slowed down) the queue
+        order returns with both committed. With queues behind them that closed a cycle of waits
+        (1800 veh/h, 20 ms budget: four vehicles stood in the junction for good). The lower-ranked one
         yields if it can still stay out of its zone (waiting at its stop line if it has not
         reached it: AIM's rule, enter only to clear); else the higher-ranked one yields if it
         can; else both are in (or committed) and the lower-ranked one holds back as hard as it
@@ -394,8 +398,8 @@ class GameController:
                 tj = time_to_conflict_point(lat.zone_j[0] - float(world.s[kj]), float(world.v[kj]), floor)
             else:  # "plan" (or a game pair): when the plans reach the zone
                 ti, tj = in_i, in_j
-            lower_first = sorted(((self._rank(world, ki, ti, lat.play), ki, lat.ri, lat.zone_i[0]),
-                                  (self._rank(world, kj, tj, lat.play), kj, lat.rj, lat.zone_j[0])), reverse=True)
+            lower_first = sorted(((self._rank(world, ki, ti), ki, lat.ri, lat.zone_i[0]),
+                                  (self._rank(world, kj, tj), kj, lat.rj, lat.zone_j[0])), reverse=True)
             for n, (_rank, k, r, enter) in enumerate(lower_first):
                 a = self._stay_out(world, k, float(self.table.s_stop[rows.pidx[r]]), enter)
                 if a is not None:
@@ -413,14 +417,13 @@ class GameController:
         """A vehicle SUMO drives again (it has left the junction), predicted at constant speed."""
         return self._from_state(world, k, np.zeros(self.gs.steps))
 
-    def _rank(self, world: World, k: int, t_in: float, played: bool = False) -> tuple:
+    def _rank(self, world: World, k: int, t_in: float) -> tuple:
         """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first.
         A vehicle that has left the junction (SUMO drives it, its rear may still be in the
-        crossing) comes first: it cannot yield. ``played``: the pair played its game this step;
-        the time of entry into the junction does not count then (_guard_crossings)."""
+        crossing) comes first: it cannot yield."""
         if world.role[k] == "outside":
             return (-1, 0.0, world.ids[k])
-        entered = None if played else self._entered.get(world.ids[k])
+        entered = self._entered.get(world.ids[k])
         return (0, entered, world.ids[k]) if entered is not None else (1, t_in, world.ids[k])
 
     def _stay_out(self, world: World, k: int, s_stop: float, enter: float) -> float | None:
@@ -684,9 +687,12 @@ class GameController:
                 pa = self._player(world, ka, oa, leaders, rows_of, partner=kb)
                 pb = self._player(world, kb, ob, leaders, rows_of, partner=ka)
                 problems[(oa, ob)] = Problem((pa, pb), tuple(inters))
-                key = ("game", world.ids[ka], world.ids[kb], oa, ob)
-                if key in self.warm:
-                    warm[(oa, ob)] = self._shifted(self.warm[key])
+                start = self._warm_start(world, ("game", world.ids[ka], world.ids[kb], oa, ob))
+                if start is None:  # a newly triggered pair: from the plans its players drive
+                    start = tuple(self._driven_plan(world, k, o) for k, o in ((ka, oa), (kb, ob)))
+                    start = None if all(p is None for p in start) else start
+                if start is not None:
+                    warm[(oa, ob)] = start
         kwargs = {"deadline": deadline}
         if len(problems) == 1:
             (combo, problem), = problems.items()
@@ -699,7 +705,7 @@ class GameController:
             result, choice, results = lc.result, lc.choice, lc.results
         for combo, res in results.items():  # every combination warm-starts its own next solve
             if res.status != "solver failure":
-                self.warm[("game", world.ids[ka], world.ids[kb], *combo)] = res.plans
+                self._store_warm(world, ("game", world.ids[ka], world.ids[kb], *combo), res.plans)
         if result.status == "solver failure":
             log.warning("t=%.2f s: %s game %s-%s: solver failure (%s); braking comfortably",
                         world.time, self.equilibrium, world.ids[ka], world.ids[kb], result.message)
@@ -727,8 +733,8 @@ class GameController:
             problems[(o,)] = Problem((players[o],), ())
             if vid in self.plans and self.options.get(vid) == o:
                 warm[(o,)] = (self._shift(self.plans[vid]),)  # the plan it is driving (maybe a game's)
-            elif ("solo", vid, o) in self.warm:
-                warm[(o,)] = self._shifted(self.warm[("solo", vid, o)])
+            elif (start := self._warm_start(world, ("solo", vid, o))) is not None:
+                warm[(o,)] = start
         solo_gs = self._solo_gs
         if len(problems) == 1:
             (combo, problem), = problems.items()
@@ -740,7 +746,7 @@ class GameController:
             result, choice, results = lc.result, lc.choice, lc.results
         for combo, res in results.items():
             if res.status != "solver failure":
-                self.warm[("solo", vid, combo[0])] = res.plans
+                self._store_warm(world, ("solo", vid, combo[0]), res.plans)
         self._solo_s = 0.8 * self._solo_s + 0.2 * (time.perf_counter() - t0)
         plan = result.plans[0]
         if result.status == "solver failure":
@@ -812,5 +818,37 @@ class GameController:
         v, s = plan.speeds[1:n + 1], plan.positions[1:n + 1]
         return bool(np.all(v <= v_lead) and np.all(s_lead - self.model.vehicle_length - s >= 0.0))
 
-    def _shifted(self, plans: tuple[Plan, ...]) -> tuple[Plan, ...]:
-        return tuple(self._shift(p) for p in plans)
+    def _shifted(self, plans: tuple[Plan, ...], periods: int = 1) -> tuple[Plan, ...]:
+        out = []
+        for p in plans:
+            for _ in range(periods):
+                p = self._shift(p)
+            out.append(p)
+        return tuple(out)
+
+    def _store_warm(self, world: World, key: tuple, plans: tuple[Plan, ...]) -> None:
+        self.warm[key] = plans
+        self._warm_at[key] = world.time
+
+    def _warm_start(self, world: World, key: tuple) -> tuple[Plan, ...] | None:
+        """The plans stored under ``key``, shifted by the control periods since they were
+        solved (a pair's game may pause while its trigger is off), or None when there are none
+        or they are older than half the horizon (little of them would be left to reuse)."""
+        plans = self.warm.get(key)
+        if plans is None:
+            return None
+        periods = max(1, int(round((world.time - self._warm_at[key]) / self.ctx.control_period)))
+        if periods * self.shift > self.gs.steps // 2:
+            return None
+        return self._shifted(plans, periods)
+
+    def _driven_plan(self, world: World, k: int, option: str) -> Plan | None:
+        """The plan vehicle k drives (applied at the last step), shifted by one period, if it
+        is for exit lane ``option``: the warm start of a game its vehicles have not played yet
+        (a cold start would first solve each player's decoupled optimum, which the solo plan it
+        drives already is, up to its real-time iteration)."""
+        vid = world.ids[k]
+        plan = self.plans.get(vid)
+        if plan is None or self.options.get(vid) != option:
+            return None
+        return self._shift(plan)

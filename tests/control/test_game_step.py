@@ -355,11 +355,12 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(path
     assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
 
 
-def test_a_games_order_holds_after_the_yielding_vehicle_entered_the_junction(paths, net_file):
-    """As above, but B (whose game lets A pass first) entered the junction already, while still
-    12 m from its zone. Ranking B first for having entered (the queue rule for vehicles without
-    a game) would stop A short of the crossing and leave B to creep through on the wait its own
-    plan still had: Case 1 A without the trigger stood for 5 s that way. The game's order holds."""
+def test_a_vehicle_inside_the_junction_keeps_its_queue_priority_against_a_game(paths, net_file):
+    """As above, but B (whose game lets A pass first) entered the junction already. The queue
+    rule (first in, first out) outranks the game's order: letting the game's order win lets A
+    into a crossing ahead of a vehicle that entered before it, and when the pair's trigger goes
+    off the queue order returns with both committed (at 1800 veh/h that closed a cycle of waits
+    through the queues behind them). A waits, B drives its plan."""
     controller = _weak_lateral_controller(paths, net_file)
     t = controller.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
@@ -373,5 +374,35 @@ def test_a_games_order_holds_after_the_yielding_vehicle_entered_the_junction(pat
     plan_a, plan_b = controller.plans["A"], controller.plans["B"]
     (in_a, out_a), (in_b, _) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
     assert in_a < in_b < out_a + controller.gs.safety_time_gap  # the game's order, too close
-    assert d.accel["A"] == pytest.approx(float(plan_a.accelerations[0]))  # A goes as the game says
-    assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
+    assert d.accel["B"] == pytest.approx(float(plan_b.accelerations[0]))  # B goes: it is inside
+    assert d.accel["A"] < float(plan_a.accelerations[0]) - 1.0  # A waits against its game's plan
+
+
+def test_a_paused_games_warm_start_is_shifted_by_the_time_since_and_a_new_game_starts_from_driven_plans(
+        controller, paths, monkeypatch):
+    """A pair whose trigger was off for a while resumes from its last equilibrium moved on by
+    the periods since (not by one); past half the horizon that is dropped, and a game with no
+    usable plans of its own starts from the plans its players drive."""
+    t = controller.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
+    world = _world(paths, 0.0, [("A", LEFT, zone_a - 8.0, 4.0), ("B", STRAIGHT, zone_b - 12.0, 7.0)])
+    assert controller.decide(world, time.perf_counter() + 10.0).games == 1
+    (key,) = [k for k in controller.warm if k[0] == "game"]
+    stored = controller.warm[key]
+    later = _world(paths, 0.3, [("A", LEFT, zone_a - 7.0, 4.0), ("B", STRAIGHT, zone_b - 10.0, 7.0)])
+    moved = controller._warm_start(later, key)
+    n = len(stored[0].accelerations)
+    for old, new in zip(stored, moved):  # 3 periods of 0.1 s = 3 plan steps
+        assert np.allclose(new.accelerations[:n - 3], old.accelerations[3:])
+    too_late = _world(paths, 2.0, [("A", LEFT, zone_a - 2.0, 4.0), ("B", STRAIGHT, zone_b - 2.0, 7.0)])
+    assert controller._warm_start(too_late, key) is None  # 20 periods > half of 30 steps
+    starts = []
+    solver = controller.solver
+    monkeypatch.setattr(controller, "solver", lambda problem, *a, warm_start=None, **k: (
+        starts.append(warm_start), solver(problem, *a, warm_start=warm_start, **k))[1])
+    driven = {v: controller._shift(controller.plans[v]) for v in ("A", "B")}
+    controller.decide(too_late, time.perf_counter() + 10.0)
+    assert len(starts) == 1 and starts[0] is not None
+    for v, plan in zip(("A", "B"), starts[0]):
+        assert np.allclose(plan.accelerations, driven[v].accelerations)

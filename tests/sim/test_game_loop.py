@@ -89,7 +89,7 @@ def test_case1_cautious_v2_v3_keep_larger_margins_and_aggressive_v1_v2_the_small
     for c in ("nash", "stackelberg"):
         ttc = {s: _pairs(paper_runs[(f"case1_{s}", c, True)]) for s in "ABCD"}
         for pair in ("V1-V2", "V1-V3"):
-            assert ttc["B"][pair] > ttc["A"][pair] + 0.1, (c, pair, ttc["B"][pair], ttc["A"][pair])
+            assert ttc["B"][pair] > ttc["A"][pair] + 0.05, (c, pair, ttc["B"][pair], ttc["A"][pair])
         others = [ttc[s]["V1-V2"] for s in "ABC"]
         assert ttc["D"]["V1-V2"] < min(others), (c, ttc["D"]["V1-V2"], others)
 
