@@ -160,6 +160,8 @@ class GameController:
         self._solo_s = 0.001  # [s] running mean wall time of one solo solve
         self._entered: dict[str, float] = {}  # [s] when each vehicle entered the junction
         self._choice_age: dict[str, int] = {}  # steps since a vehicle's exit lane was last decided
+        self._held: set[str] = set()  # vehicles whose acceleration the filter lowered this step
+        self._held_before: set[str] = set()  # ... at the step before
         self._solo_inputs: dict[str, tuple] = {}  # vehicle -> (steps since its solo solve, exit, leader prediction used)
         self._decided_at: float | None = None  # [s] time of the last decide call
         self._applied: dict[str, Plan] = {}  # plans applied before that call
@@ -192,6 +194,7 @@ class GameController:
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
         self._decided_at, self._applied = world.time, dict(self.plans)  # for the fallback
+        self._held_before, self._held = self._held, set()
         n = len(world)
         ids = world.ids
         active = [k for k in range(n) if world.role[k] != "outside"]
@@ -349,6 +352,7 @@ class GameController:
             if vid in decisions.accel and limit < decisions.accel[vid]:
                 decisions.accel[vid] = max(limit, gs.a_min)
                 self.filtered += 1
+                self._held.add(vid)
 
     def _guard_crossings(self, world: World, rows: _Rows, lateral, chosen, plans, cap, period,
                          clear: set[str]) -> None:
@@ -774,7 +778,11 @@ class GameController:
         last steps. So it is solved again only when an input changed, after
         ``free_resolve_steps`` steps at the latest (1 = always), or when the shifted plan would
         leave the speed limits. A free vehicle (no leader) is the special case with nothing to
-        compare. The safety filter checks reused plans like fresh ones.
+        compare. A vehicle the safety filter held back at the last step is off its plan by the
+        filter's doing, not because its problem changed, so its plan is kept (re-anchored at
+        the measured state: its intent, which the filter goes on checking) until it is due; a
+        vehicle waiting at its stop line for a crossing otherwise solved again every period.
+        The safety filter checks reused plans like fresh ones.
         """
         vid = world.ids[k]
         last = self._solo_inputs.get(vid)
@@ -788,7 +796,8 @@ class GameController:
         plan = self._shift(plan)
         v = float(world.v[k])
         v_cap = player.v_max if player.v_max is not None else self.model.v_max  # [m/s]
-        if abs(plan.speeds[0] - v) > 0.05 or plan.speeds.max() > v_cap + 1e-6:
+        off_plan = abs(plan.speeds[0] - v) > 0.05 and vid not in self._held_before
+        if off_plan or plan.speeds.max() > v_cap + 1e-6:
             return False
         if player.leader is not None:
             lag = (age + 1) * self.shift  # [steps] since the solve

@@ -406,3 +406,39 @@ def test_a_paused_games_warm_start_is_shifted_by_the_time_since_and_a_new_game_s
     assert len(starts) == 1 and starts[0] is not None
     for v, plan in zip(("A", "B"), starts[0]):
         assert np.allclose(plan.accelerations, driven[v].accelerations)
+
+
+def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, net_file, monkeypatch):
+    """A vehicle the safety filter held back is off its own plan by the filter's doing, not
+    because its problem changed: it keeps its plan (re-anchored at its measured state) instead
+    of solving again every period, until free_resolve_steps is due; one that left its plan
+    without being held solves again at once."""
+    calls = _count_solo_solves(monkeypatch)
+    model = ModelSettings(gamma_sf=1e12)  # no game: the solo plans and the filter decide
+    c = GameController("nash")
+    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=model, control_period=0.1,
+                           solver=GameSettings(), etm=True))
+    t = c.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
+
+    def step(time_s, s_a, v_a, s_b, v_b):
+        w = _world(paths, time_s, [("A", LEFT, s_a, v_a), ("B", STRAIGHT, s_b, v_b)])
+        return c.decide(w, time.perf_counter() + 10.0)
+
+    d = step(0.0, zone_a - 14.0, 7.0, zone_b - 9.0, 4.0)  # as in the yield_order test: B waits
+    assert d.games == 0 and d.accel["B"] < float(c.plans["B"].accelerations[0]) - 1.0
+    assert calls.count("B") == 1
+    for n in range(1, 6):  # B follows the filter's braking, A its own plan
+        a, b = c.plans["A"], c.plans["B"]
+        v_b = max(float(b.speeds[0]) + d.accel["B"] * 0.1, 0.0)
+        s_b = float(b.positions[0]) + 0.5 * (float(b.speeds[0]) + v_b) * 0.1
+        d = step(0.1 * n, float(a.positions[1]), float(a.speeds[1]), s_b, v_b)
+        assert d.accel["B"] < float(c.plans["B"].accelerations[0]), n  # still held
+    # reused for free_resolve_steps - 1 periods, then solved again
+    assert calls.count("B") == 1 + 6 // c.gs.free_resolve_steps
+    # A pushed off its plan (not by the filter) solves again at once
+    before = calls.count("A")
+    a = c.plans["A"]
+    step(0.6, float(a.positions[1]), float(a.speeds[1]) - 1.0, s_b, v_b)
+    assert calls.count("A") == before + 1
