@@ -333,11 +333,9 @@ def _weak_lateral_controller(paths, net_file):
     return c
 
 
-def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(paths, net_file):
-    """B is nearer the crossing in time at its current speed (1.71 s against A's 2.0 s), but the
-    pair's game lets A pass first, and its plans still pass within safety_time_gap. The filter
-    keeps the game's order (for a pair without a game it would rank B first): A drives its
-    equilibrium plan, B brakes below its own."""
+def _pair_a_game_lets_pass_first(paths, net_file):
+    """A (left turn, 8 m from its zone at 4 m/s) and B (straight on, 12 m at 7 m/s), whose game
+    lets A pass first; returns the controller, the world and the two zones [m]."""
     controller = _weak_lateral_controller(paths, net_file)
     t = controller.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
@@ -345,6 +343,15 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(path
     zone_b = (float(t.zone_in[q, p]), float(t.zone_out[q, p]))
     world = _world(paths, 0.0, [("A", LEFT, zone_a[0] - 8.0, 4.0), ("B", STRAIGHT, zone_b[0] - 12.0, 7.0)])
     world.kappa[:] = (0.6, 0.8)
+    return controller, world, zone_a, zone_b
+
+
+def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(paths, net_file):
+    """B is nearer the crossing in time at its current speed (1.71 s against A's 2.0 s), but the
+    pair's game lets A pass first, and its plans still pass within safety_time_gap. The filter
+    keeps the game's order (for a pair without a game it would rank B first): A drives its
+    equilibrium plan, B brakes below its own."""
+    controller, world, zone_a, zone_b = _pair_a_game_lets_pass_first(paths, net_file)
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert d.games == 1
     plan_a, plan_b = controller.plans["A"], controller.plans["B"]
@@ -361,13 +368,7 @@ def test_a_vehicle_inside_the_junction_keeps_its_queue_priority_against_a_game(p
     into a crossing ahead of a vehicle that entered before it, and when the pair's trigger goes
     off the queue order returns with both committed (at 1800 veh/h that closed a cycle of waits
     through the queues behind them). A waits, B drives its plan."""
-    controller = _weak_lateral_controller(paths, net_file)
-    t = controller.table
-    p, q = t.index[LEFT], t.index[STRAIGHT]
-    zone_a = (float(t.zone_in[p, q]), float(t.zone_out[p, q]))
-    zone_b = (float(t.zone_in[q, p]), float(t.zone_out[q, p]))
-    world = _world(paths, 0.0, [("A", LEFT, zone_a[0] - 8.0, 4.0), ("B", STRAIGHT, zone_b[0] - 12.0, 7.0)])
-    world.kappa[:] = (0.6, 0.8)
+    controller, world, zone_a, zone_b = _pair_a_game_lets_pass_first(paths, net_file)
     world.role[1] = "passing"
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert d.games == 1 and "B" in controller._entered
