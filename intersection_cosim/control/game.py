@@ -160,7 +160,7 @@ class GameController:
         self._solo_s = 0.001  # [s] running mean wall time of one solo solve
         self._entered: dict[str, float] = {}  # [s] when each vehicle entered the junction
         self._choice_age: dict[str, int] = {}  # steps since a vehicle's exit lane was last decided
-        self._held: set[str] = set()  # vehicles whose acceleration the filter lowered this step
+        self._held: set[str] = set()  # vehicles the filter held back at a crossing this step
         self._held_before: set[str] = set()  # ... at the step before
         self._solo_inputs: dict[str, tuple] = {}  # vehicle -> (steps since its solo solve, exit, leader prediction used)
         self._decided_at: float | None = None  # [s] time of the last decide call
@@ -331,6 +331,7 @@ class GameController:
             gap = lead.gap - ms.vehicle_length - gs.safety_margin  # [m] bumper to bumper, less margin
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -gs.a_min, period)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k_of[r]])) / period)
+        leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
         plans = dict(self.plans)
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
         for _pass in range(2):
@@ -352,7 +353,8 @@ class GameController:
             if vid in decisions.accel and limit < decisions.accel[vid]:
                 decisions.accel[vid] = max(limit, gs.a_min)
                 self.filtered += 1
-                self._held.add(vid)
+                if limit < leader_cap.get(vid, math.inf):  # held back at a crossing
+                    self._held.add(vid)
 
     def _guard_crossings(self, world: World, rows: _Rows, lateral, chosen, plans, cap, period,
                          clear: set[str]) -> None:
@@ -758,8 +760,13 @@ class GameController:
                         world.time, vid, result.message)
             plan = safe_plan(problems[choice].players[0], self.gs)
             self._solo_inputs.pop(vid, None)
-        elif result.status != "converged":
-            # real-time iteration: the capped SQP continues from this plan at the next step
+        elif (result.status != "converged" and vid not in self._held_before
+              and not (result.residuals and result.residuals[-1] < self.gs.nash_tol)):
+            # real-time iteration: the capped SQP continues from this plan at the next step.
+            # A capped step that moved the plan less than nash_tol (the convergence test of the
+            # equilibrium iteration, which a one-step solve cannot apply itself) counts as
+            # converged, and so does the plan of a vehicle the filter is holding back (its plan
+            # is only the intent the filter checks; _reuse_solo_plan)
             self._solo_inputs.pop(vid, None)
         else:
             self._solo_inputs[vid] = (0, choice[0], problems[choice].players[0].leader)
@@ -778,10 +785,12 @@ class GameController:
         last steps. So it is solved again only when an input changed, after
         ``free_resolve_steps`` steps at the latest (1 = always), or when the shifted plan would
         leave the speed limits. A free vehicle (no leader) is the special case with nothing to
-        compare. A vehicle the safety filter held back at the last step is off its plan by the
-        filter's doing, not because its problem changed, so its plan is kept (re-anchored at
-        the measured state: its intent, which the filter goes on checking) until it is due; a
-        vehicle waiting at its stop line for a crossing otherwise solved again every period.
+        compare. A vehicle the safety filter held back at a crossing at the last step is off its
+        plan by the filter's doing, not because its problem changed, so its plan is kept
+        (re-anchored at the measured state: its intent, which the filter goes on checking) until
+        it is due, converged or not; a vehicle waiting at its stop line for a crossing otherwise
+        solved again every period. (One held back behind its leader goes on solving: its plan
+        answers J_log, which the filter's cap only bounds.)
         The safety filter checks reused plans like fresh ones.
         """
         vid = world.ids[k]

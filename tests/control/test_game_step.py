@@ -260,7 +260,7 @@ def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_s
 def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeypatch):
     """Real-time iteration: with solo_max_iter = 1 a follower closing fast on a slow leader does
     not converge in one SQP step; it applies that plan and solves again (from it) at the next
-    period, until it has converged."""
+    period, until it has converged: a step that moved its plan less than nash_tol."""
 
     c = GameController("nash")
     c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
@@ -272,7 +272,9 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
     def recording(problem, *a, **k):
         result = real(problem, *a, **k)
         if problem.players[0].name == "follow":
-            solves.append((step, result.status, result.iterations))
+            moved = result.residuals[-1] if result.residuals else 0.0
+            solves.append((step, "converged" if result.status == "converged" or moved < c.gs.nash_tol
+                           else result.status, result.iterations))
         return result
 
     monkeypatch.setattr(game_module, "nash_equilibrium", recording)
@@ -292,6 +294,8 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
     for n, st, _ in solves[:-1]:
         if st != "converged":
             assert n + 1 in steps  # an unconverged plan is never reused: the next period solves
+    last = max(n for n, st, _ in solves if st == "converged")
+    assert last + 1 not in steps  # a converged one is reused
 
 
 @pytest.mark.parametrize("order", ["tcp", "plan"])
