@@ -88,8 +88,9 @@ class GameSettings:
     #                         sample): a solo problem changes little between periods, and the
     #                         vehicle a game is about to take over needs no converged solo plan.
     #                         At 4 the solo solves of the waiting vehicles ate the trigger's
-    #                         saving (Case 1 A mean 1.33 ms with the ETM against 1.48 without;
-    #                         at 1: 0.74 against 1.44 ms), and the paper's orderings hold at both
+    #                         saving (Case 1 A, Nash, medians of three runs in one process:
+    #                         1.33 ms a step with the ETM against 1.48 without; at 1: 0.74
+    #                         against 1.44 ms); the paper's orderings hold at both
     lane_choice_range: float = 30.0  # [m] a vehicle chooses among its exit lanes only within this
     #                                  distance of its stop line (v_max * horizon: what the plan
     #                                  reaches); farther out it keeps its current exit lane
