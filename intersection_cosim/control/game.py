@@ -737,8 +737,8 @@ class GameController:
         problems, warm = {}, {}
         for o in opts:
             problems[(o,)] = Problem((players[o],), ())
-            if vid in self.plans and self.options.get(vid) == o:
-                warm[(o,)] = (self._shift(self.plans[vid]),)  # the plan it is driving (maybe a game's)
+            if (driven := self._driven_plan(world, k, o)) is not None:
+                warm[(o,)] = (driven,)  # the plan it is driving (maybe a game's)
             elif (start := self._warm_start(world, ("solo", vid, o))) is not None:
                 warm[(o,)] = start
         solo_gs = self._solo_gs
@@ -862,9 +862,9 @@ class GameController:
 
     def _driven_plan(self, world: World, k: int, option: str) -> Plan | None:
         """The plan vehicle k drives (applied at the last step), shifted by one period, if it
-        is for exit lane ``option``: the warm start of a game its vehicles have not played yet
-        (a cold start would first solve each player's decoupled optimum, which the solo plan it
-        drives already is, up to its real-time iteration)."""
+        is for exit lane ``option``: the warm start of its own solo solve, and of a game its
+        vehicles have not played yet (a cold start would first solve each player's decoupled
+        optimum, which the solo plan it drives already is, up to its real-time iteration)."""
         vid = world.ids[k]
         plan = self.plans.get(vid)
         if plan is None or self.options.get(vid) != option:
