@@ -51,7 +51,7 @@ def _stats(x) -> dict:
 def run(repeat: int) -> dict:
     configs = [(case, solver, etm) for case in CASES for solver in SOLVERS for etm in (True, False)]
     base = {case: load_scenario(path) for case, path in CASES.items()}
-    data = {c: {"ctrl": [], "ctrl_games": [], "ctrl_skip": [], "first": [], "sumo_step": [], "sumo_period": []}
+    data = {c: {"ctrl": [], "ctrl_games": [], "ctrl_skip": [], "first": [], "sumo_step": [], "sumo_period": [], "qp": []}
             for c in configs}
     period_steps = {}
     with sumo_step_timer() as sumo_ms, tempfile.TemporaryDirectory(prefix="bench_controller_") as tmp:
@@ -68,6 +68,7 @@ def run(repeat: int) -> dict:
                 ms = steps["compute_ms"].to_numpy(float)
                 d["ctrl"].extend(ms)
                 d["ctrl_games"].extend(ms[steps["games"].to_numpy() > 0])
+                d["qp"].extend(steps["qp_solves"].to_numpy(float))
                 d["ctrl_skip"].extend(ms[SKIP_FIRST:])
                 d["first"].append(float(ms[0]) if ms.size else float("nan"))
                 s = np.asarray(sumo_ms)
@@ -85,6 +86,7 @@ def run(repeat: int) -> dict:
             "controller_first_step_ms": [round(x, 3) for x in d["first"]],
             "sumo_step": _stats(d["sumo_step"]),
             "sumo_per_control_period": _stats(d["sumo_period"]),
+            "qp_solves_per_step": round(float(np.mean(d["qp"])), 4) if d["qp"] else None,
         }
     etm_cut = {}
     for case in CASES:
@@ -94,7 +96,11 @@ def run(repeat: int) -> dict:
             ratio = m_on / m_off if m_on is not None and m_off else None
             s_on = results[f"{case}/{solver}/etm"]["controller_excl_first3"]["mean_ms"]
             s_off = results[f"{case}/{solver}/noetm"]["controller_excl_first3"]["mean_ms"]
+            q_on = results[f"{case}/{solver}/etm"]["qp_solves_per_step"]
+            q_off = results[f"{case}/{solver}/noetm"]["qp_solves_per_step"]
             etm_cut[f"{case}/{solver}"] = {"mean_etm_ms": m_on, "mean_noetm_ms": m_off,
+                                           "qp_solves_per_step_etm": q_on, "qp_solves_per_step_noetm": q_off,
+                                           "qp_cut": round(1 - q_on / q_off, 4) if q_on is not None and q_off else None,
                                            "ratio": None if ratio is None else round(ratio, 4),
                                            "cut": None if ratio is None else round(1 - ratio, 4),
                                            "cut_excl_first3": round(1 - s_on / s_off, 4) if s_on is not None and s_off else None}
@@ -123,7 +129,9 @@ def _table(res: dict) -> str:
                      f"{f(r['sumo_step']['median_ms'])} {f(r['sumo_step']['p95_ms'])} "
                      f"{f(r['sumo_per_control_period']['median_ms'])}")
     for name, e in res["etm"].items():
-        lines.append(f"ETM {name}: mean {e['mean_etm_ms']} vs {e['mean_noetm_ms']} ms, cut {e['cut']} (excl. first 3 steps: {e['cut_excl_first3']})")
+        lines.append(f"ETM {name}: mean {e['mean_etm_ms']} vs {e['mean_noetm_ms']} ms, cut {e['cut']} (excl. first 3 steps: "
+                     f"{e['cut_excl_first3']}); QPs per step {e['qp_solves_per_step_etm']} vs "
+                     f"{e['qp_solves_per_step_noetm']}, cut {e['qp_cut']}")
     for solver, fl in res["flags"].items():
         lines.append(f"{solver}: {fl}")
     return "\n".join(lines)

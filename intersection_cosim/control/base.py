@@ -50,6 +50,7 @@ class Decisions:
     iterations: int = 0  # equilibrium iterations (summed over games)
     pairs: list[tuple[str, str]] = field(default_factory=list)  # pairs that played a game
     deferred: int = 0  # games / solo solves left out to meet the budget (last plan kept, shifted)
+    qp_solves: int = 0  # QPs solved for this step (the work, independent of the machine's load)
     fallback: bool = False  # the decisions are the scheduler's fallback
     note: str = ""  # why a fallback was used
 

@@ -61,7 +61,7 @@ from intersection_cosim.control.base import ControlContext, Decisions, World
 from intersection_cosim.control.safety import braking_plan, krauss_safe_speed, occupancy, stopping_acceleration
 from intersection_cosim.games.lane_choice import lane_change_cost, lane_choice_game
 from intersection_cosim.games.nash import nash_equilibrium
-from intersection_cosim.games.qp import reset_workspaces
+from intersection_cosim.games.qp import reset_workspaces, solve_count
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem, safe_plan, shift_plan
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
@@ -193,6 +193,12 @@ class GameController:
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
+        solved_before = solve_count()
+        decisions = self._decide(world, deadline)
+        decisions.qp_solves = solve_count() - solved_before
+        return decisions
+
+    def _decide(self, world: World, deadline: float) -> Decisions:
         self._decided_at, self._applied = world.time, dict(self.plans)  # for the fallback
         self._held_before, self._held = self._held, set()
         n = len(world)

@@ -101,6 +101,7 @@ class QPWorkspace:
         the duals of the slot's previous solve. With ``reuse`` the installed P may stand in for H
         (module docstring); the solution reports the H used.
         """
+        _local.solves = getattr(_local, "solves", 0) + 1
         Hc = self.H
         if reuse and Hc is not None and (H is Hc or abs(H - Hc).max() <= self._reuse_bound):
             H = Hc
@@ -148,6 +149,12 @@ class QPWorkspace:
             status = "non-finite solution" if status_val == _SOLVED else str(info.status)
             return QPSolution(None, None, None, status, iters)
         return QPSolution(x, y, H, "solved", iters, rs / scale)
+
+
+def solve_count() -> int:
+    """QPs this thread has solved so far (every call of :meth:`QPWorkspace.solve`): a measure of
+    a controller's work that, unlike its wall time, does not move with the machine's load."""
+    return getattr(_local, "solves", 0)
 
 
 def reset_workspaces() -> None:

@@ -28,6 +28,7 @@ class StepRecord:
     deadline_missed: bool  # compute_ms exceeded the budget
     fallback: bool  # the applied decisions are the fallback
     deferred: int = 0  # games / solo solves the controller left out to meet the budget
+    qp_solves: int = 0  # QPs the controller solved (its work; the fallback's included)
 
 
 class StepScheduler:
@@ -59,10 +60,12 @@ class StepScheduler:
             if played is not None:
                 decisions.games, decisions.iterations = played.games, played.iterations
                 decisions.deferred = played.deferred
+                decisions.qp_solves += played.qp_solves
                 decisions.pairs = played.pairs
         record = StepRecord(time=world.time, compute_ms=elapsed * 1e3, games=decisions.games,
                             iterations=decisions.iterations, deadline_missed=missed,
-                            fallback=decisions.fallback, deferred=decisions.deferred)
+                            fallback=decisions.fallback, deferred=decisions.deferred,
+                            qp_solves=decisions.qp_solves)
         return decisions, record
 
     def pace(self, sim_time: float) -> None:

@@ -447,3 +447,21 @@ def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, n
     a = c.plans["A"]
     step(0.6, float(a.positions[1]), float(a.speeds[1]) - 1.0, s_b, v_b)
     assert calls.count("A") == before + 1
+
+
+def test_a_step_reports_the_qps_it_solved(controller, paths, monkeypatch):
+    """Decisions.qp_solves (steps.csv's load-free measure of the work) is the number of QPs the
+    step solved: one per SQP step of every best response of its games and solo vehicles."""
+    from intersection_cosim.games import qp as qp_module
+
+    calls = []
+    real = qp_module.QPWorkspace.solve
+    monkeypatch.setattr(qp_module.QPWorkspace, "solve", lambda self, *a, **k: (calls.append(1), real(self, *a, **k))[1])
+    t = controller.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    world = _world(paths, 1.0, [("L", LEFT, t.s_a[p, q] - 16.0, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 17.0, 8.0)])
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    assert d.games == 1 and d.iterations >= 1
+    assert d.qp_solves == len(calls) >= 2 * d.iterations  # two players' best responses per iteration
+    world.role = ["outside", "outside"]
+    assert controller.decide(world, time.perf_counter() + 10.0).qp_solves == 0
