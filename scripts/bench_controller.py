@@ -12,8 +12,8 @@ Configurations are interleaved (the repeat loop is the outermost) so that drift 
 machine affects all equally. Every run gets a step budget of 2000 ms, which no step comes near:
 at the scenarios' 100 ms the anytime deadline can cut a slow game short under load, and the
 configurations would then no longer do the same work from run to run (the QPs per step,
-``qp_solves``, are printed next to the times as the load-free measure). A short table goes to stderr; the last line of stdout is one JSON
-object. Targets on this machine: Case 2 with the ETM <= 2 ms median per control step for Nash;
+``qp_solves``, are printed next to the times as the load-free measure). A short table goes to
+stderr; the last line of stdout is one JSON object. Targets on this machine: Case 2 with the ETM <= 2 ms median per control step for Nash;
 the ETM cuts the mean controller time by at least 40 %.
 
     python scripts/bench_controller.py [--repeat 3]

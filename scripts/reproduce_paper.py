@@ -219,10 +219,12 @@ def orderings(runs: Runs, cases: list[str], all_runs: list[tuple]) -> pd.DataFra
                 continue
             m_on, m_off = on["compute_ms"].mean(), off["compute_ms"].mean()
             cut = 1 - m_on / m_off
-            q_on, q_off = on["qp_solves"].mean(), off["qp_solves"].mean()  # the work, load-free
+            work = ""
+            if "qp_solves" in on and "qp_solves" in off:  # (runs of versions before the column lack it)
+                q_on, q_off = on["qp_solves"].mean(), off["qp_solves"].mean()  # the work, load-free
+                work = f" (QPs per step {q_on:.2f} vs {q_off:.2f}, cut {1 - q_on / q_off:.1%})"
             add(9, lab, f"{case}: ETM cuts mean compute_ms >= {MIN_CUT:.0%}",
-                f"ETM {m_on:.2f} ms, no ETM {m_off:.2f} ms, cut {cut:.1%} (QPs per step {q_on:.2f} "
-                f"vs {q_off:.2f}, cut {1 - q_on / q_off:.1%})", cut >= MIN_CUT)
+                f"ETM {m_on:.2f} ms, no ETM {m_off:.2f} ms, cut {cut:.1%}{work}", cut >= MIN_CUT)
     return pd.DataFrame(rows, columns=["check", "solver", "description", "values", "holds"]).sort_values(
         "check", kind="stable")
 
@@ -251,8 +253,9 @@ def compute_time_figure(runs: Runs, case: str, out_png: Path) -> Path:
                 name = "ETM" if etm else "no ETM"
                 ax.plot(s["time"], s["compute_ms"], color=style, lw=1,
                         label=f"{name} (mean {s['compute_ms'].mean():.2f} ms)")
-                work.plot(s["time"], s["qp_solves"].cumsum(), color=style, lw=1.5,
-                          label=f"{name} ({s['qp_solves'].mean():.2f} QPs per step)")
+                if "qp_solves" in s:  # (absent from runs of versions before the column)
+                    work.plot(s["time"], s["qp_solves"].cumsum(), color=style, lw=1.5,
+                              label=f"{name} ({s['qp_solves'].mean():.2f} QPs per step)")
         ax.set(title=f"{case}, {lab}")
         work.set(xlabel="time [s]")
         for a in (ax, work):

@@ -28,7 +28,7 @@ class StepRecord:
     deadline_missed: bool  # compute_ms exceeded the budget
     fallback: bool  # the applied decisions are the fallback
     deferred: int = 0  # games / solo solves the controller left out to meet the budget
-    qp_solves: int = 0  # QPs the controller solved (its work; the fallback's included)
+    qp_solves: int = 0  # QPs decide solved (its work; kept when the fallback replaces its decisions)
 
 
 class StepScheduler:
