@@ -149,8 +149,8 @@ class GameController:
         self.junction_type = junction_type
         self.plans: dict[str, Plan] = {}  # plan applied at the last step, per vehicle
         self.options: dict[str, str] = {}  # exit lane chosen at the last step
-        self.warm: dict[tuple, tuple[Plan, ...]] = {}  # game or solo key -> its last plans
-        self._warm_at: dict[tuple, float] = {}  # [s] when each warm entry was stored
+        # game or solo key -> (when its plans were solved [s], the plans)
+        self.warm: dict[tuple, tuple[float, tuple[Plan, ...]]] = {}
         self.controlled: set[str] = set()
         self.convergence: list[ConvergenceRecord] = []
         self.filtered = 0  # accelerations the safety filter lowered
@@ -223,7 +223,6 @@ class GameController:
         # Warm starts are keyed ("solo", vehicle, exit) or ("game", vehicle_a, vehicle_b, exit_a, exit_b).
         self.warm = {key: v for key, v in self.warm.items()
                      if all(x in present for x in (key[1:2] if key[0] == "solo" else key[1:3]))}
-        self._warm_at = {key: self._warm_at[key] for key in self.warm}
         leaders, lateral = self._relations(world, rows, active_set)
         self._effective = self._effective_options(world, rows, leaders, lateral)
         games = self._games(rows, lateral)
@@ -851,17 +850,17 @@ class GameController:
         return tuple(out)
 
     def _store_warm(self, world: World, key: tuple, plans: tuple[Plan, ...]) -> None:
-        self.warm[key] = plans
-        self._warm_at[key] = world.time
+        self.warm[key] = (world.time, plans)
 
     def _warm_start(self, world: World, key: tuple) -> tuple[Plan, ...] | None:
         """The plans stored under ``key``, shifted by the control periods since they were
         solved (a pair's game may pause while its trigger is off), or None when there are none
         or they are older than half the horizon (little of them would be left to reuse)."""
-        plans = self.warm.get(key)
-        if plans is None:
+        entry = self.warm.get(key)
+        if entry is None:
             return None
-        periods = max(1, int(round((world.time - self._warm_at[key]) / self.ctx.control_period)))
+        solved_at, plans = entry
+        periods = max(1, int(round((world.time - solved_at) / self.ctx.control_period)))
         if periods * self.shift > self.gs.steps // 2:
             return None
         return self._shifted(plans, periods)

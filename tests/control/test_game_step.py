@@ -394,7 +394,7 @@ def test_a_paused_games_warm_start_is_shifted_by_the_time_since_and_a_new_game_s
     world = _world(paths, 0.0, [("A", LEFT, zone_a - 8.0, 4.0), ("B", STRAIGHT, zone_b - 12.0, 7.0)])
     assert controller.decide(world, time.perf_counter() + 10.0).games == 1
     (key,) = [k for k in controller.warm if k[0] == "game"]
-    stored = controller.warm[key]
+    _, stored = controller.warm[key]
     later = _world(paths, 0.3, [("A", LEFT, zone_a - 7.0, 4.0), ("B", STRAIGHT, zone_b - 10.0, 7.0)])
     moved = controller._warm_start(later, key)
     n = len(stored[0].accelerations)
