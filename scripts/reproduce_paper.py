@@ -179,7 +179,6 @@ def orderings(runs: Runs, cases: list[str], all_runs: list[tuple]) -> pd.DataFra
                 vals.append(f"{pair}: B {f(b)} s, A {f(a)} s")
                 ok = None if None in (a, b) or ok is None else ok and b > a
             add(3, lab, f"Case 1: V1-V2, V1-V3 {name} B > A", "; ".join(vals), ok)
-        for col, name in (("min_ttc", "min TTC"), ("pet_ssm", "SSM PET")):
             t = {s: runs.ttc(f"case1_{s}", ctrl, "V1-V2", col) for s in "ABCD"}
             ok = None if None in t.values() else t["D"] <= min(t.values())
             add(4, lab, f"Case 1: V1-V2 {name} smallest in D", ", ".join(f"{s} {f(v)}" for s, v in t.items()), ok)
