@@ -30,6 +30,16 @@ def _world(paths, t, vehicles):
                  exit_choices={i: (paths[p].exit_lane,) for i, p in zip(ids, pids)})
 
 
+def _nash_controller(paths, net_file, model: ModelSettings | None = None,
+                     solver: GameSettings | None = None) -> GameController:
+    """A Nash controller on the default net (ETM on, 0.1 s period), like the ``controller``
+    fixture but with the given model and solver settings."""
+    c = GameController("nash")
+    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=model or ModelSettings(),
+                           control_period=0.1, solver=solver, etm=True))
+    return c
+
+
 def test_a_crossing_is_guarded_until_the_turning_body_has_cleared_it(controller, paths):
     """The crossing whose zone reaches farthest past its point: the first vehicle stands
     0.5 m past conflict_clearance (4.5 m), so no game any more, but its body still covers the
@@ -262,9 +272,7 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
     not converge in one SQP step; it applies that plan and solves again (from it) at the next
     period, until it has converged: a step that moved its plan less than nash_tol."""
 
-    c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
-                           solver=GameSettings(solo_max_iter=1), etm=True))
+    c = _nash_controller(paths, net_file, solver=GameSettings(solo_max_iter=1))
     solves = []  # (control step, status, iterations) of the follower's solo solves
     real = game_module.nash_equilibrium
     step = 0
@@ -305,9 +313,7 @@ def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
     default order ("tcp", the paper's leader rule) B waits at its stop line; with "plan", A does."""
     # the trigger off (gamma_sf huge): no game, only the solo plans and the filter decide
     model = ModelSettings(gamma_sf=1e12)
-    c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=model, control_period=0.1,
-                           solver=GameSettings(yield_order=order), etm=True))
+    c = _nash_controller(paths, net_file, model, GameSettings(yield_order=order))
     t = c.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
@@ -331,10 +337,7 @@ def _weak_lateral_controller(paths, net_file):
     """A Nash controller whose games weigh J_lat lightly (k_lat = 1): their plans pass a crossing
     closer than safety_time_gap, which the filter must then enforce (at the default k_lat the
     yielding player already brakes at a_min in its equilibrium plan)."""
-    c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(k_lat=1.0),
-                           control_period=0.1, solver=None, etm=True))
-    return c
+    return _nash_controller(paths, net_file, ModelSettings(k_lat=1.0))
 
 
 def _pair_a_game_lets_pass_first(paths, net_file):
@@ -420,9 +423,7 @@ def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, n
     without being held solves again at once."""
     calls = _count_solo_solves(monkeypatch)
     model = ModelSettings(gamma_sf=1e12)  # no game: the solo plans and the filter decide
-    c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=model, control_period=0.1,
-                           solver=GameSettings(), etm=True))
+    c = _nash_controller(paths, net_file, model, GameSettings())
     t = c.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
