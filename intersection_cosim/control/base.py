@@ -67,6 +67,15 @@ class ControlContext:
     etm: bool  # event-triggered mechanism on
 
 
+@dataclass(frozen=True)
+class Diagnostics:
+    """What a controller reports about a whole run (summary.json; None: not applicable)."""
+
+    convergence: tuple = ()  # one record per game solve (control/game.py ConvergenceRecord)
+    safety_interventions: int | None = None  # accelerations the safety filter lowered
+    box_rule_clearances: int | None = None  # accelerations the filter raised to clear a crossing
+
+
 class Controller(Protocol):
     """A decision layer. A new controller is a new module plus a registry entry."""
 
@@ -83,4 +92,8 @@ class Controller(Protocol):
 
     def fallback(self, world: World) -> Decisions:
         """Safe decisions when ``decide`` misses its deadline or fails."""
+        ...
+
+    def diagnostics(self) -> Diagnostics:
+        """The run's counters and per-game records so far."""
         ...

@@ -36,10 +36,17 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Mapping
 
 import numpy as np
 
+from intersection_cosim.control.base import Decisions, World
+from intersection_cosim.control.relations import Lateral, Relations
 from intersection_cosim.games.problem import Plan
+from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.models.cost import time_to_conflict_point
+from intersection_cosim.models.settings import ModelSettings
 
 
 def occupancy(plan: Plan, enter: float, leave: float) -> tuple[float, float]:
@@ -90,3 +97,177 @@ def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float) -> 
     ``v_leader`` [m/s], for maximum deceleration ``decel`` [m/s^2] and reaction time ``tau`` [s]."""
     bt = decel * tau
     return -bt + math.sqrt(max(bt * bt + v_leader * v_leader + 2.0 * decel * max(gap, 0.0), 0.0))
+
+
+@dataclass(frozen=True)
+class _Crossing:
+    """One vehicle of a guarded lateral pair, as the filter ranks it."""
+
+    rank: tuple
+    k: int  # World index
+    row: int
+    enter: float  # [m] front arc length where its zone starts
+
+
+class SafetyFilter:
+    """The whole filter of the module docstring, with its entry queue and its counters.
+
+    ``s_stop`` [m]: each conflict-table path's stop line; ``period`` [s]: the control period.
+    """
+
+    def __init__(self, settings: GameSettings, model: ModelSettings, s_stop: np.ndarray, period: float):
+        self.gs, self.model, self.s_stop, self.period = settings, model, s_stop, period
+        self.entered: dict[str, float] = {}  # [s] when each vehicle entered the junction (the queue)
+        self.filtered = 0  # accelerations the filter lowered
+        self.cleared = 0  # accelerations the filter raised to clear a crossing (box rule)
+
+    def record_entries(self, world: World) -> None:
+        """Put vehicles that entered the junction ("passing") into the entry queue."""
+        for k in range(len(world)):
+            if world.role[k] == "passing":
+                self.entered.setdefault(world.ids[k], world.time)
+
+    def release(self, vehicle: str) -> None:
+        self.entered.pop(vehicle, None)
+
+    def apply(self, world: World, relations: Relations, plans: Mapping[str, Plan], options: Mapping[str, str],
+              decisions: Decisions) -> frozenset[str]:
+        """Lower (or, by the box rule, raise) ``decisions.accel`` where this step's ``plans``
+        would collide; ``options``: the exit lane each vehicle takes. Returns the vehicles held
+        back at a crossing (not only behind a leader).
+
+        Two passes: a vehicle braked in the first pass is checked again in the second with its
+        braking plan (constant capped deceleration to a stop), so a vehicle made to stop is seen
+        by every other crossing it now blocks in the same step.
+        """
+        rows = relations.rows
+        chosen = tuple(rows.option[r] == options.get(world.ids[rows.vehicle[r]], rows.option[r])
+                       for r in range(len(rows)))
+        cap = self._leader_caps(world, relations, chosen, decisions)
+        leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
+        plans = dict(plans)
+        clear: set[str] = set()  # vehicles in a crossing that another one waits for
+        for _pass in range(2):
+            for vid in clear:
+                if vid in plans and float(plans[vid].accelerations[0]) < self.gs.clear_accel:
+                    plans[vid] = braking_plan(plans[vid], self.gs.clear_accel)  # constant: it drives on
+            for vid, limit in cap.items():
+                if vid in plans and limit < float(plans[vid].accelerations[0]):
+                    plans[vid] = braking_plan(plans[vid], max(limit, self.gs.a_min))
+            for lat in relations.lateral:
+                if chosen[lat.ri] and chosen[lat.rj]:
+                    self._guard(world, relations, lat, plans, cap, clear)
+        return self._enforce(decisions, cap, leader_cap, clear)
+
+    def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions) -> dict[str, float]:
+        """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed."""
+        gs, rows = self.gs, relations.rows
+        cap: dict[str, float] = {}
+        for r, lead in relations.leaders.items():
+            k = int(rows.vehicle[r])
+            vid = world.ids[k]
+            if vid not in decisions.accel or not chosen[r]:
+                continue
+            gap = lead.gap - self.model.vehicle_length - gs.safety_margin  # [m] bumper to bumper, less margin
+            v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -gs.a_min, self.period)
+            cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k])) / self.period)
+        return cap
+
+    def _enforce(self, decisions: Decisions, cap: dict[str, float], leader_cap: dict[str, float],
+                 clear: set[str]) -> frozenset[str]:
+        gs = self.gs
+        held = set()
+        for vid in clear:
+            # the box rule: a vehicle inside a crossing that another waits for clears it (its own
+            # plan may wait for the other, as a game played before the wait can say), unless a
+            # cap of its own holds it back
+            if vid in decisions.accel and decisions.accel[vid] < gs.clear_accel:
+                decisions.accel[vid] = min(gs.clear_accel, cap.get(vid, math.inf))
+                self.cleared += 1
+        for vid, limit in cap.items():
+            if vid in decisions.accel and limit < decisions.accel[vid]:
+                decisions.accel[vid] = max(limit, gs.a_min)
+                self.filtered += 1
+                if limit < leader_cap.get(vid, math.inf):  # held back at a crossing
+                    held.add(vid)
+        return frozenset(held)
+
+    def _guard(self, world: World, relations: Relations, lat: Lateral, plans: dict[str, Plan],
+               cap: dict[str, float], clear: set[str]) -> None:
+        """Caps (into ``cap``) for one crossing that the ``plans`` would share within
+        ``safety_time_gap``: the lower-ranked vehicle yields if it can still stay out of its zone
+        (waiting at its stop line if it has not reached it: AIM's rule, enter only to clear);
+        else the higher-ranked one yields if it can; else both are in (or committed) and the
+        lower-ranked one holds back as hard as it may while the other clears the crossing. A
+        higher-ranked vehicle already inside its zone that a lower-ranked one yields to is put
+        in ``clear``: it must drive out."""
+        gs, ids = self.gs, world.ids
+        ki, kj = int(relations.rows.vehicle[lat.ri]), int(relations.rows.vehicle[lat.rj])
+        pi, pj = self._plan_of(world, ki, plans), self._plan_of(world, kj, plans)
+        if pi is None or pj is None:
+            return
+        in_i, out_i = occupancy(pi, *lat.zone_i)
+        in_j, out_j = occupancy(pj, *lat.zone_j)
+        if in_i >= out_j + gs.safety_time_gap or in_j >= out_i + gs.safety_time_gap:
+            return  # the plans keep the crossing clear
+        ti, tj = self._arrival(world, lat, ki, kj, in_i, in_j)
+        lower_first = sorted((_Crossing(self._rank(world, ki, ti), ki, lat.ri, lat.zone_i[0]),
+                              _Crossing(self._rank(world, kj, tj), kj, lat.rj, lat.zone_j[0])),
+                             key=lambda c: (c.rank, c.k, c.row, c.enter), reverse=True)
+        for n, c in enumerate(lower_first):
+            a = self._stay_out(world, c.k, float(self.s_stop[relations.rows.pidx[c.row]]), c.enter)
+            if a is not None:
+                cap[ids[c.k]] = min(cap.get(ids[c.k], math.inf), a)
+                other = lower_first[1]
+                if n == 0 and float(world.s[other.k]) >= other.enter and float(world.v[other.k]) < gs.clear_speed:
+                    clear.add(ids[other.k])
+                return
+        k = lower_first[0].k
+        cap[ids[k]] = min(cap.get(ids[k], math.inf), max(gs.a_min, -float(world.v[k]) / self.period))
+
+    def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan]) -> Plan | None:
+        """The plan the filter checks for vehicle k: this step's, or constant speed for one
+        SUMO drives again (it has left the junction); None for one without a plan."""
+        plan = plans.get(world.ids[k])
+        if plan is None and world.role[k] == "outside":
+            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.gs.steps), self.gs.dt)
+        return plan
+
+    def _arrival(self, world: World, lat: Lateral, ki: int, kj: int, in_i: float, in_j: float) -> tuple[float, float]:
+        """[s] the times that rank the pair: to the zone at the current speed (``yield_order =
+        "tcp"``, Eqs. 21-22); by the plans for ``"plan"`` and for a pair that played its game this
+        step, which keeps the equilibrium's order (the filter never overrules a game's
+        decision, it only enforces it)."""
+        if self.gs.yield_order == "tcp" and not lat.play:
+            floor = self.model.tcp_speed_floor
+            return (time_to_conflict_point(lat.zone_i[0] - float(world.s[ki]), float(world.v[ki]), floor),
+                    time_to_conflict_point(lat.zone_j[0] - float(world.s[kj]), float(world.v[kj]), floor))
+        return in_i, in_j
+
+    def _rank(self, world: World, k: int, t_in: float) -> tuple:
+        """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first.
+        A vehicle that has left the junction (SUMO drives it, its rear may still be in the
+        crossing) comes first: it cannot yield. One inside ranks by when it entered (first in,
+        first out, like a queue: the queue holds even against a game's order, or waits could
+        close a cycle), ahead of every vehicle not yet in."""
+        if world.role[k] == "outside":
+            return (-1, 0.0, world.ids[k])
+        entered = self.entered.get(world.ids[k])
+        return (0, entered, world.ids[k]) if entered is not None else (1, t_in, world.ids[k])
+
+    def _stay_out(self, world: World, k: int, s_stop: float, enter: float) -> float | None:
+        """[m/s^2] the acceleration that keeps vehicle k out of a zone starting at ``enter`` [m]:
+        stop at its stop line (less the margin) if it has not reached it and can, else before
+        the zone (less the margin, or at its edge when already within the margin); None if it
+        cannot any more (inside, or too fast)."""
+        gs = self.gs
+        s_k, v_k = float(world.s[k]), float(world.v[k])
+        if s_k >= enter:
+            return None
+        for target in (s_stop - gs.safety_margin, enter - gs.safety_margin, enter - 0.05):
+            if target <= s_k:
+                continue
+            a = stopping_acceleration(s_k, v_k, target)
+            if a is not None and a >= gs.a_min:
+                return a
+        return max(gs.a_min, -v_k / self.period) if v_k < 0.1 else None

@@ -20,7 +20,7 @@ import pandas as pd
 
 from intersection_cosim import __version__
 from intersection_cosim.control import registry
-from intersection_cosim.control.base import ControlContext
+from intersection_cosim.control.base import ControlContext, Diagnostics
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.files import ROUTE_FILE, SUMOCFG_FILE, write_routes, write_sumocfg
 from intersection_cosim.network.build import NET_FILE
@@ -186,6 +186,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     vehicles.to_csv(folder / "vehicles.csv", index=False, float_format="%.4f")
     pairs.to_csv(folder / "pairs.csv", index=False, float_format="%.4f")
 
+    # until every controller implements Controller.diagnostics
+    diagnostics = controller.diagnostics() if hasattr(controller, "diagnostics") else Diagnostics()
     summary = {
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
         "settings": {"scenario": to_dict(s), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
@@ -196,8 +198,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                    "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),
                    "fallbacks": int(steps["fallback"].sum()),
                    "steps_with_deferred_work": int(steps["deferred"].gt(0).sum()),
-                   "safety_interventions": getattr(controller, "filtered", None),
-                   "box_rule_clearances": getattr(controller, "cleared", None)},
+                   "safety_interventions": diagnostics.safety_interventions,
+                   "box_rule_clearances": diagnostics.box_rule_clearances},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,

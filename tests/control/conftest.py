@@ -14,3 +14,21 @@ def controller(paths, net_file):
     c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
                            solver=None, etm=True))
     return c
+
+
+def make_world(paths, t, vehicles, kappa=0.5):
+    """A World of vehicles given as (id, path id, s [m], v [m/s]), all "ready", each with its
+    path's exit lane as its only choice."""
+    import numpy as np
+
+    from intersection_cosim.control.base import World
+
+    ids = [v[0] for v in vehicles]
+    pids = [v[1] for v in vehicles]
+    s = np.array([v[2] for v in vehicles], float)
+    xy = np.array([paths[p].point_at(si) for p, si in zip(pids, s)])
+    n = len(ids)
+    return World(time=t, ids=ids, path_ids=pids, s=s, v=np.array([v[3] for v in vehicles], float),
+                 a=np.zeros(n), x=xy[:, 0], y=xy[:, 1], heading=np.zeros(n), kappa=np.full(n, kappa),
+                 role=["ready"] * n, lanes=[paths[p].lanes[0] for p in pids],
+                 exit_choices={i: (paths[p].exit_lane,) for i, p in zip(ids, pids)})

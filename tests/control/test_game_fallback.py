@@ -1,10 +1,11 @@
 """The game controller's fallback: last applied plans, shifted, still through the safety filter."""
 
+import time
+
 import numpy as np
 import pytest
 
 from intersection_cosim.control.base import World
-from intersection_cosim.games.problem import Plan
 
 
 def _world(paths, t, s_a, s_b, v=8.0):
@@ -25,24 +26,36 @@ def test_fallback_without_plans_brakes_comfortably(controller, paths):
 
 
 def test_fallback_discards_the_overrun_steps_plans_and_filters_a_collision(controller, paths):
-    gs = controller.gs
-    # Both applied plans hold 8 m/s: V1 and V2 reach their crossing point together.
+    """decide() ran at 1.0 s and again at 1.1 s, which overran: the fallback of 1.1 s drives the
+    plans of 1.0 s shifted by one period, not the discarded ones of 1.1 s, through the filter."""
     cp = controller.table
     i, j = cp.index["south_inner_left_inner"], cp.index["east_inner_left_inner"]
-    s_cp_a, s_cp_b = cp.s_a[i, j], cp.s_b[i, j]
-    s_a, s_b = s_cp_a - 16.0, s_cp_b - 16.0  # [m] both 2 s from the point
-    world = _world(paths, 1.0, s_a, s_b)
-    hold = np.zeros(gs.steps)
-    controller.plans = {"V1": Plan.from_accelerations(s_a, 8.0, hold, gs.dt),
-                        "V2": Plan.from_accelerations(s_b, 8.0, hold, gs.dt)}
-    controller.options = {"V1": "inner", "V2": "inner"}
-    # decide() ran for this step (its plans are discarded) and overran; then the fallback:
-    controller._decided_at, controller._applied = 1.0, dict(controller.plans)
-    controller.plans = {}
+    s_a, s_b = cp.s_a[i, j] - 16.0, cp.s_b[i, j] - 16.0  # [m] both 2 s from the point
+    controller.decide(_world(paths, 1.0, s_a, s_b), time.perf_counter() + 10.0)
+    applied = dict(controller.memory.plans)
+    # 1.1 s: moved as planned, but the world says both are 2 m/s faster: decide plans anew
+    moved = {v: (float(p.positions[1]), float(p.speeds[1])) for v, p in applied.items()}
+    world = _world(paths, 1.1, moved["V1"][0], moved["V2"][0])
+    world.v[:] = (moved["V1"][1], moved["V2"][1])
+    controller.decide(world, time.perf_counter() + 10.0)
+    assert any(controller.memory.plans[v] is not applied[v] for v in applied)
+    before = controller.diagnostics().safety_interventions
+    d = controller.fallback(world)
+    assert d.fallback and not d.games
+    for v in ("V1", "V2"):
+        kept = max(float(applied[v].accelerations[1]), -float(world.v[world.ids.index(v)]) / 0.1)
+        assert d.accel[v] <= kept + 1e-12  # the 1.0 s plan, shifted (or lowered by the filter)
+        assert controller.memory.plans[v].accelerations[0] == pytest.approx(float(applied[v].accelerations[1]))
+    assert controller.diagnostics().safety_interventions >= before
+
+
+def test_fallback_brakes_one_of_two_plans_that_would_collide(controller, paths):
+    """No plans yet, both 2 s from their crossing at 8 m/s: the kept plans brake comfortably,
+    and the filter still orders the two (one stops before the point)."""
+    cp = controller.table
+    i, j = cp.index["south_inner_left_inner"], cp.index["east_inner_left_inner"]
+    world = _world(paths, 1.0, cp.s_a[i, j] - 16.0, cp.s_b[i, j] - 16.0)
     d = controller.fallback(world)
     assert d.fallback
-    a = sorted((d.accel["V1"], d.accel["V2"]))
-    # one of the two must yield: it brakes to stop before the point; the other keeps its plan
-    assert a[1] == pytest.approx(0.0)
-    assert a[0] < -1.0
-    assert controller.filtered >= 1
+    assert max(d.accel.values()) == pytest.approx(-controller.gs.comfort_brake)
+    assert min(d.accel.values()) <= -controller.gs.comfort_brake

@@ -1,15 +1,18 @@
 """The game controller's step: crossings guarded until cleared, the anytime step, solo re-planning."""
 
+import dataclasses
 import time
 
 import numpy as np
 import pytest
 
-from intersection_cosim.control import game as game_module
+from intersection_cosim.control import solo as solo_module
 from intersection_cosim.control.base import ControlContext, World
 from intersection_cosim.control.game import GameController
+from intersection_cosim.control.plan_memory import GameKey, PlanMemory
+from intersection_cosim.control.players import leader_trajectory
+from intersection_cosim.control.relations import step_relations
 from intersection_cosim.control.safety import occupancy
-from intersection_cosim.games.problem import Plan
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.models.settings import ModelSettings
 
@@ -66,18 +69,18 @@ def test_without_time_left_games_are_deferred_and_the_last_plans_kept(controller
     world = _world(paths, 1.0, [("L", LEFT, t.s_a[p, q] - 16.0, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 17.0, 8.0)])
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert d.games == 1 and d.deferred == 0
-    planned = {v: controller.plans[v] for v in ("L", "S")}
+    planned = {v: controller.memory.plans[v] for v in ("L", "S")}
     # next period, moved as planned, but the deadline has already passed: nothing is solved
     s_next = [float(planned[v].positions[1]) for v in ("L", "S")]
     v_next = [float(planned[v].speeds[1]) for v in ("L", "S")]
     world = _world(paths, 1.1, [("L", LEFT, s_next[0], v_next[0]), ("S", STRAIGHT, s_next[1], v_next[1])])
-    filtered = controller.filtered
+    filtered = controller.diagnostics().safety_interventions
     d = controller.decide(world, time.perf_counter() - 1.0)
     assert d.games == 0 and d.deferred == 1
     for v in ("L", "S"):
         kept = float(planned[v].accelerations[1])  # the plan shifted by one period
         assert d.accel[v] <= kept + 1e-12
-    assert controller.filtered > filtered or all(
+    assert controller.diagnostics().safety_interventions > filtered or all(
         d.accel[v] == pytest.approx(float(planned[v].accelerations[1])) for v in ("L", "S"))
 
 
@@ -87,13 +90,13 @@ LANE = "south_middle_straight_middle"  # northbound, straight on: a leader and i
 def _count_solo_solves(monkeypatch) -> list[str]:
     """The names of the players of every solo solve the controller makes from now on."""
     calls = []
-    real = game_module.nash_equilibrium
+    real = solo_module.nash_equilibrium
 
     def counting(problem, *a, **k):
         calls.append(problem.players[0].name)
         return real(problem, *a, **k)
 
-    monkeypatch.setattr(game_module, "nash_equilibrium", counting)
+    monkeypatch.setattr(solo_module, "nash_equilibrium", counting)
     return calls
 
 
@@ -107,14 +110,14 @@ def test_a_solo_follower_solves_again_only_when_its_leader_prediction_moves(cont
     d = controller.decide(world_at(0.0, s_stop - 60.0, 8.0, s_stop - 80.0, 8.0), time.perf_counter() + 10.0)
     assert d.games == 0 and calls.count("follow") == 1
     # both moved exactly as planned: the follower's problem is the same one, later -> reused
-    plans = dict(controller.plans)
+    plans = dict(controller.memory.plans)
     lead, follow = plans["lead"], plans["follow"]
     w = world_at(0.1, float(lead.positions[1]), float(lead.speeds[1]),
                  float(follow.positions[1]), float(follow.speeds[1]))
     controller.decide(w, time.perf_counter() + 10.0)
     assert calls.count("follow") == 1
     # the leader is suddenly 2 m/s slower than its plan said: its prediction moved -> solve again
-    plans = dict(controller.plans)
+    plans = dict(controller.memory.plans)
     lead, follow = plans["lead"], plans["follow"]
     w = world_at(0.2, float(lead.positions[1]), float(lead.speeds[1]) - 2.0,
                  float(follow.positions[1]), float(follow.speeds[1]))
@@ -161,36 +164,6 @@ def test_two_vehicles_stopped_in_each_others_zones_do_not_drive_off_together(con
     assert len(moving) == 1 and len(held) == 1, d.accel
 
 
-def test_a_vehicle_standing_in_a_crossing_that_another_waits_for_drives_out(controller, paths):
-    """The box rule. B entered the junction first and stands inside the crossing; its own plan
-    waits (as a game played earlier can say, expecting A to go first). A, ranked lower, yields
-    before its zone; then B must clear the crossing: its acceleration is raised to clear_accel,
-    or A and B would wait for each other for ever (Case 1 A without the trigger did)."""
-    t = controller.table
-    p, q = _deepest_crossing(t)
-    a_path, b_path = t.ids[p], t.ids[q]
-    s_b = 0.5 * (t.zone_in[q, p] + t.zone_out[q, p])  # B in the middle of its zone
-    s_a = t.zone_in[p, q] - 3.0  # A 3 m before its zone, inside the junction
-    assert s_a > t.s_stop[p]
-    world = _world(paths, 5.0, [("A", a_path, s_a, 2.0), ("B", b_path, s_b, 0.0)])
-    world.role = ["passing", "passing"]
-    controller._entered = {"B": 1.0, "A": 2.0}
-    gs = controller.gs
-    waiting = np.zeros(gs.steps)  # B's last plan: stand
-    controller.plans = {"A": Plan.from_accelerations(s_a, 2.0, np.full(gs.steps, 1.0), gs.dt),
-                        "B": Plan.from_accelerations(s_b, 0.0, waiting, gs.dt)}
-    controller.options = {"A": paths[a_path].exit_lane, "B": paths[b_path].exit_lane}
-    rows = controller._rows(world, {0, 1})
-    leaders, lateral = controller._relations(world, rows, {0, 1})
-    from intersection_cosim.control.base import Decisions
-
-    d = Decisions(accel={"A": 1.0, "B": 0.0})
-    controller._safety_filter(world, rows, leaders, lateral, d)
-    assert d.accel["A"] < 0.0  # A yields before its zone
-    assert d.accel["B"] == pytest.approx(gs.clear_accel)
-    assert controller.cleared == 1
-
-
 def test_a_vehicle_that_left_the_junction_still_guards_its_rear(controller, paths):
     """S's front has passed the junction exit (SUMO drives it again, no plan of ours), but its
     rear is still in the crossing: E, standing before its zone with a plan to drive off, must
@@ -222,12 +195,10 @@ def test_a_leader_on_a_parting_path_stops_counting_past_the_shared_stretch(contr
     s_lead = end - 2.0
     for follower_path, parted in ((middle, True), (inner, False)):
         world = _world(paths, 0.0, [("LEAD", inner, s_lead, 4.0), ("F", follower_path, s_lead - 8.0, 8.0)])
-        controller.plans.clear()
-        rows = controller._rows(world, {0, 1})
-        leaders, _ = controller._relations(world, rows, {0, 1})
-        lead = leaders[controller._rows_of[(1, world.exit_choices["F"][0])]]
+        relations = step_relations(world, {0, 1}, paths, controller.table, controller.model, True, {}, 30.0)
+        lead = relations.leader_of(1, world.exit_choices["F"][0])
         assert lead.vehicle == 0
-        s_pred, _v = controller._leader_trajectory(world, lead)
+        s_pred, _v = leader_trajectory(world, lead, PlanMemory(1, 0.1, 30, 0.1))  # no plans: coasting
         clear_at = end + controller.model.conflict_clearance  # [m] its rear past the end
         beyond = s_pred > clear_at
         assert beyond.any() and not beyond.all()  # it gets there within the horizon
@@ -253,14 +224,14 @@ def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_s
 
     controller.decide(world_at(0.0, s_stop - 60.0, 12.0, s_stop - 80.0, 7.0), time.perf_counter() + 10.0)
     assert calls.count("follow") == 1
-    lead, follow = controller.plans["lead"], controller.plans["follow"]
+    lead, follow = controller.memory.plans["lead"], controller.memory.plans["follow"]
     assert np.all(follow.speeds < lead.speeds)  # never closing in: J_log is zero along the plan
     w = world_at(0.1, float(lead.positions[1]), float(lead.speeds[1]) + 1.0,
                  float(follow.positions[1]), float(follow.speeds[1]))
     controller.decide(w, time.perf_counter() + 10.0)
     assert calls.count("follow") == 1  # reused
     # a leader that drops below the follower's planned speed makes J_log active: solve again
-    lead, follow = controller.plans["lead"], controller.plans["follow"]
+    lead, follow = controller.memory.plans["lead"], controller.memory.plans["follow"]
     w = world_at(0.2, float(lead.positions[1]), float(follow.speeds[1]) - 2.0,
                  float(follow.positions[1]), float(follow.speeds[1]))
     controller.decide(w, time.perf_counter() + 10.0)
@@ -274,7 +245,7 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
 
     c = _nash_controller(paths, net_file, solver=GameSettings(solo_max_iter=1))
     solves = []  # (control step, status, iterations) of the follower's solo solves
-    real = game_module.nash_equilibrium
+    real = solo_module.nash_equilibrium
     step = 0
 
     def recording(problem, *a, **k):
@@ -285,13 +256,13 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
                            else result.status, result.iterations))
         return result
 
-    monkeypatch.setattr(game_module, "nash_equilibrium", recording)
+    monkeypatch.setattr(solo_module, "nash_equilibrium", recording)
     path = LANE
     s_stop = paths[path].s_stop
     world = _world(paths, 0.0, [("lead", path, s_stop - 60.0, 3.0), ("follow", path, s_stop - 75.0, 9.0)])
     for step in range(8):
         c.decide(world, time.perf_counter() + 10.0)
-        lead, follow = c.plans["lead"], c.plans["follow"]
+        lead, follow = c.memory.plans["lead"], c.memory.plans["follow"]
         world = _world(paths, 0.1 * (step + 1), [
             ("lead", path, float(lead.positions[1]), float(lead.speeds[1])),
             ("follow", path, float(follow.positions[1]), float(follow.speeds[1]))])
@@ -323,14 +294,14 @@ def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
     world.kappa[:] = (0.1, 1.0)
     d = c.decide(world, time.perf_counter() + 10.0)
     assert d.games == 0
-    plan_a, plan_b = c.plans["A"], c.plans["B"]
+    plan_a, plan_b = c.memory.plans["A"], c.memory.plans["B"]
     t_a, t_b = occupancy(plan_a, zone_a, zone_a + 1.0)[0], occupancy(plan_b, zone_b, zone_b + 1.0)[0]
     assert t_b < t_a  # by the plans, B is first ...
     assert 14.0 / 7.0 < 9.0 / 4.0  # ... by the current speeds, A is
     waits = "B" if order == "tcp" else "A"
     goes = "A" if waits == "B" else "B"
     assert d.accel[waits] < 0.0 < d.accel[goes]
-    assert d.accel[goes] == pytest.approx(float(c.plans[goes].accelerations[0]))  # not filtered
+    assert d.accel[goes] == pytest.approx(float(c.memory.plans[goes].accelerations[0]))  # not filtered
 
 
 def _weak_lateral_controller(paths, net_file):
@@ -361,7 +332,7 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(path
     controller, world, zone_a, zone_b = _pair_a_game_lets_pass_first(paths, net_file)
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert d.games == 1
-    plan_a, plan_b = controller.plans["A"], controller.plans["B"]
+    plan_a, plan_b = controller.memory.plans["A"], controller.memory.plans["B"]
     (in_a, out_a), (in_b, out_b) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
     assert 12.0 / 7.0 < 8.0 / 4.0 and in_a < in_b  # TCP order B, A; the game's order A, B
     assert in_b < out_a + controller.gs.safety_time_gap  # too close: the filter must order them
@@ -378,38 +349,31 @@ def test_a_vehicle_inside_the_junction_keeps_its_queue_priority_against_a_game(p
     controller, world, zone_a, zone_b = _pair_a_game_lets_pass_first(paths, net_file)
     world.role[1] = "passing"
     d = controller.decide(world, time.perf_counter() + 10.0)
-    assert d.games == 1 and "B" in controller._entered
-    plan_a, plan_b = controller.plans["A"], controller.plans["B"]
+    assert d.games == 1 and "B" in controller.safety.entered
+    plan_a, plan_b = controller.memory.plans["A"], controller.memory.plans["B"]
     (in_a, out_a), (in_b, _) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
     assert in_a < in_b < out_a + controller.gs.safety_time_gap  # the game's order, too close
     assert d.accel["B"] == pytest.approx(float(plan_b.accelerations[0]))  # B goes: it is inside
     assert d.accel["A"] < float(plan_a.accelerations[0]) - 1.0  # A waits against its game's plan
 
 
-def test_a_paused_games_warm_start_is_shifted_by_the_time_since_and_a_new_game_starts_from_driven_plans(
-        controller, paths, monkeypatch):
-    """A pair whose trigger was off for a while resumes from its last equilibrium moved on by
-    the periods since (not by one); past half the horizon that is dropped, and a game with no
-    usable plans of its own starts from the plans its players drive."""
+def test_a_new_game_starts_from_the_plans_its_players_drive(controller, paths, monkeypatch):
+    """A game with no usable plans of its own (its last solve older than half the horizon)
+    starts from the plans its players drive, shifted by one period."""
     t = controller.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
     world = _world(paths, 0.0, [("A", LEFT, zone_a - 8.0, 4.0), ("B", STRAIGHT, zone_b - 12.0, 7.0)])
     assert controller.decide(world, time.perf_counter() + 10.0).games == 1
-    (key,) = [k for k in controller.warm if k[0] == "game"]
-    _, stored = controller.warm[key]
-    later = _world(paths, 0.3, [("A", LEFT, zone_a - 7.0, 4.0), ("B", STRAIGHT, zone_b - 10.0, 7.0)])
-    moved = controller._warm_start(later, key)
-    n = len(stored[0].accelerations)
-    for old, new in zip(stored, moved):  # 3 periods of 0.1 s = 3 plan steps
-        assert np.allclose(new.accelerations[:n - 3], old.accelerations[3:])
+    (key,) = [k for k in controller.memory.keys() if isinstance(k, GameKey)]
     too_late = _world(paths, 2.0, [("A", LEFT, zone_a - 2.0, 4.0), ("B", STRAIGHT, zone_b - 2.0, 7.0)])
-    assert controller._warm_start(too_late, key) is None  # 20 periods > half of 30 steps
+    assert controller.memory.warm_start(key, too_late.time) is None  # 20 periods > half of 30 steps
     starts = []
-    solver = controller.solver
-    monkeypatch.setattr(controller, "solver", lambda problem, *a, warm_start=None, **k: (
-        starts.append(warm_start), solver(problem, *a, warm_start=warm_start, **k))[1])
-    driven = {v: controller._shift(controller.plans[v]) for v in ("A", "B")}
+    real = controller.solver.equilibrium
+    recording = lambda problem, *a, warm_start=None, **k: (  # noqa: E731
+        starts.append(warm_start), real(problem, *a, warm_start=warm_start, **k))[1]
+    monkeypatch.setattr(controller, "solver", dataclasses.replace(controller.solver, equilibrium=recording))
+    driven = {v: controller.memory.shifted(controller.memory.plans[v]) for v in ("A", "B")}
     controller.decide(too_late, time.perf_counter() + 10.0)
     assert len(starts) == 1 and starts[0] is not None
     for v, plan in zip(("A", "B"), starts[0]):
@@ -433,19 +397,19 @@ def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, n
         return c.decide(w, time.perf_counter() + 10.0)
 
     d = step(0.0, zone_a - 14.0, 7.0, zone_b - 9.0, 4.0)  # as in the yield_order test: B waits
-    assert d.games == 0 and d.accel["B"] < float(c.plans["B"].accelerations[0]) - 1.0
+    assert d.games == 0 and d.accel["B"] < float(c.memory.plans["B"].accelerations[0]) - 1.0
     assert calls.count("B") == 1
     for n in range(1, 6):  # B follows the filter's braking, A its own plan
-        a, b = c.plans["A"], c.plans["B"]
+        a, b = c.memory.plans["A"], c.memory.plans["B"]
         v_b = max(float(b.speeds[0]) + d.accel["B"] * 0.1, 0.0)
         s_b = float(b.positions[0]) + 0.5 * (float(b.speeds[0]) + v_b) * 0.1
         d = step(0.1 * n, float(a.positions[1]), float(a.speeds[1]), s_b, v_b)
-        assert d.accel["B"] < float(c.plans["B"].accelerations[0]), n  # still held
+        assert d.accel["B"] < float(c.memory.plans["B"].accelerations[0]), n  # still held
     # reused for free_resolve_steps - 1 periods, then solved again
     assert calls.count("B") == 1 + 6 // c.gs.free_resolve_steps
     # A pushed off its plan (not by the filter) solves again at once
     before = calls.count("A")
-    a = c.plans["A"]
+    a = c.memory.plans["A"]
     step(0.6, float(a.positions[1]), float(a.speeds[1]) - 1.0, s_b, v_b)
     assert calls.count("A") == before + 1
 

@@ -1,0 +1,112 @@
+"""Exit-lane options of a step and what leaving the preferred exit lane costs (J_lk, paper Eq. 23).
+
+An exit lane matters only if it changes the vehicle's partners: whom it crosses or merges with,
+or whom it follows (Case 2's V3: behind V4 on the inner lane, or merging with V1 on the middle
+lane). Where every option gives the same partners (Case 1's left turns cross the same vehicles
+whichever exit lane they take), only the preferred one is solved: the previous step's choice,
+else the movement's default lane. Where the choice matters it is decided every
+``lane_choice_period`` control steps (the discrete decision at a slower rate than the continuous
+one, as in multi-rate MPC); in between the vehicle holds its last choice.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping
+
+import sumolib
+
+from intersection_cosim.control.base import World
+from intersection_cosim.control.relations import Relations, option_path
+from intersection_cosim.games.lane_choice import lane_change_cost
+from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.network.spec import LANE_USE
+
+
+@dataclass(frozen=True)
+class LaneOptions:
+    """The exit lanes worth deciding between this step, per vehicle, and the lane-choice clock."""
+
+    options: Mapping[int, tuple[str, ...]]  # World index -> exit lanes to solve for
+    choice_age: Mapping[str, int]  # vehicle id -> control steps since its exit lane was decided
+
+
+def preferred_exit(path: MovementPath) -> str:
+    """The movement's default exit lane (the first of the lane-use table)."""
+    return LANE_USE[path.lane][path.movement][0]
+
+
+def lane_options(world: World, relations: Relations, paths: Mapping[str, MovementPath],
+                 previous: Mapping[str, str], choice_age: Mapping[str, int],
+                 lane_choice_period: int) -> LaneOptions:
+    """Per vehicle, the exit lanes whose choice changes whom it interacts with (module docstring).
+
+    ``previous``: vehicle id -> exit lane chosen at the last step; ``choice_age``: the clock of
+    the last step, returned advanced (a vehicle whose choice does not matter keeps its age).
+    """
+    ages = dict(choice_age)
+    out = {}
+    for k, by_option in _partners(relations).items():
+        opts = tuple(by_option)
+        vid = world.ids[k]
+        last = previous.get(vid)
+        if len(opts) > 1 and len(set(by_option.values())) == 1:
+            opts = (last if last in by_option else preferred_exit(paths[world.path_ids[k]]),)
+        elif len(opts) > 1:
+            age = ages.get(vid)
+            if age is not None and age + 1 < lane_choice_period and last in by_option:
+                opts = (last,)  # hold the last choice between decisions
+                ages[vid] = age + 1
+            else:
+                ages[vid] = 0
+        out[k] = opts
+    return LaneOptions(out, ages)
+
+
+def _partners(relations: Relations) -> dict[int, dict[str, tuple]]:
+    """World index -> exit lane -> (lateral partners, leader) of that row."""
+    rows = relations.rows
+    partners: dict[int, set] = {r: set() for r in range(len(rows))}
+    for lat in relations.lateral:
+        if lat.live:
+            partners[lat.ri].add(int(rows.vehicle[lat.rj]))
+            partners[lat.rj].add(int(rows.vehicle[lat.ri]))
+    sig: dict[int, dict[str, tuple]] = {}
+    for r, k in enumerate(rows.vehicle):
+        lead = relations.leaders.get(r)
+        sig.setdefault(int(k), {})[rows.option[r]] = (frozenset(partners[r]), lead.vehicle if lead else None)
+    return sig
+
+
+class LaneChangeCosts:
+    """J_lk (Eq. 23) of each exit lane of a path: its lateral offset [m] from the movement's
+    preferred exit lane, measured on the net's exit edge (the widths of the lanes between the
+    two centre lines, read with sumolib)."""
+
+    def __init__(self, net_file: str, paths: Mapping[str, MovementPath], model: ModelSettings):
+        net = sumolib.net.readNet(str(net_file))
+        self._lane = {}  # exit lane id -> (edge id, lane index)
+        self._widths = {}  # exit edge id -> [m] width of each of its lanes, by index
+        for path in paths.values():
+            lane = net.getLane(path.lanes[-1])
+            edge = lane.getEdge()
+            self._lane[lane.getID()] = (edge.getID(), lane.getIndex())
+            self._widths[edge.getID()] = [ln.getWidth() for ln in edge.getLanes()]
+        self._paths = paths
+        self._model = model
+
+    def offset(self, path: MovementPath, option: str) -> float:
+        """[m] lateral distance between the centre lines of ``path``'s preferred exit lane and
+        of exit lane ``option``."""
+        edge, ia = self._lane[self._paths[option_path(path.id, preferred_exit(path))].lanes[-1]]
+        _, ib = self._lane[self._paths[option_path(path.id, option)].lanes[-1]]
+        lo, hi = sorted((ia, ib))
+        if lo == hi:
+            return 0.0
+        widths = self._widths[edge][lo:hi + 1]
+        return (widths[0] + widths[-1]) / 2.0 + sum(widths[1:-1])
+
+    def costs(self, path: MovementPath, options: tuple[str, ...]) -> dict[str, float]:
+        """J_lk of each of ``options``."""
+        return {o: lane_change_cost(self.offset(path, o), self._model) for o in options}

@@ -1,0 +1,133 @@
+"""What the game controller remembers between control steps: the plan and exit lane each vehicle
+drives, and the solved plans that warm-start the next solve of the same game or solo problem.
+
+Plans are receding-horizon sequences at the solver step ``dt``; one control period is ``shift``
+solver steps, so a plan one period old is the stored plan shifted by ``shift``
+(:func:`~intersection_cosim.games.problem.shift_plan`: drop the first steps, repeat the last).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Union
+
+import numpy as np
+
+from intersection_cosim.control.base import World
+from intersection_cosim.games.problem import Plan, shift_plan
+
+
+@dataclass(frozen=True)
+class SoloKey:
+    """The solo problem of one vehicle for one exit lane."""
+
+    vehicle: str
+    exit_lane: str
+
+    def vehicles(self) -> tuple[str, ...]:
+        return (self.vehicle,)
+
+
+@dataclass(frozen=True)
+class GameKey:
+    """The game of a pair (``a`` the first player) for one combination of exit lanes."""
+
+    a: str
+    b: str
+    exit_a: str
+    exit_b: str
+
+    def vehicles(self) -> tuple[str, ...]:
+        return (self.a, self.b)
+
+
+WarmKey = Union[SoloKey, GameKey]
+
+
+class PlanMemory:
+    """Applied plans and exit lanes per vehicle, and warm starts per problem.
+
+    ``shift``: solver steps per control period; ``period`` [s] the control period;
+    ``steps`` the horizon N; ``dt`` [s] the solver step.
+    """
+
+    def __init__(self, shift: int, period: float, steps: int, dt: float):
+        self.shift, self.period, self.steps, self.dt = shift, period, steps, dt
+        self.plans: dict[str, Plan] = {}  # plan applied at the last step, per vehicle
+        self.options: dict[str, str] = {}  # exit lane chosen at the last step, per vehicle
+        self._warm: dict[WarmKey, tuple[float, tuple[Plan, ...]]] = {}  # key -> ([s] solved at, plans)
+
+    # ------------------------------------------------------------ applied plans
+    def apply(self, vehicle: str, plan: Plan, option: str) -> None:
+        self.plans[vehicle] = plan
+        self.options[vehicle] = option
+
+    def forget(self, vehicle: str) -> None:
+        """Drop a vehicle handed back to SUMO."""
+        self.plans.pop(vehicle, None)
+        self.options.pop(vehicle, None)
+
+    def prune_warm(self, present: set[str]) -> None:
+        """Drop the warm starts of problems with a vehicle no longer controlled."""
+        self._warm = {key: v for key, v in self._warm.items() if all(x in present for x in key.vehicles())}
+
+    def shifted(self, plan: Plan, periods: int = 1) -> Plan:
+        """``plan`` moved on by ``periods`` control periods."""
+        for _ in range(periods * self.shift):
+            plan = shift_plan(plan)
+        return plan
+
+    def from_state(self, world: World, k: int, a) -> Plan:
+        """The plan of accelerations ``a`` [m/s^2] started from vehicle k's measured state."""
+        return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.dt)
+
+    def coasting_plan(self, world: World, k: int) -> Plan:
+        """Vehicle k at constant speed (one SUMO drives again, having left the junction)."""
+        return self.from_state(world, k, np.zeros(self.steps))
+
+    def kept_plan(self, world: World, k: int, comfort_brake: float) -> Plan:
+        """Vehicle k's last applied plan shifted by one period and started from its measured
+        state; braking at ``comfort_brake`` [m/s^2] if it has none."""
+        plan = self.plans.get(world.ids[k])
+        if plan is not None:
+            return self.from_state(world, k, self.shifted(plan).accelerations)
+        return self.from_state(world, k, np.full(self.steps, -comfort_brake))
+
+    def driven_plan(self, vehicle: str, option: str) -> Plan | None:
+        """The plan ``vehicle`` drives (applied at the last step), shifted by one period, if it
+        is for exit lane ``option``: the warm start of its own solo solve, and of a game its
+        vehicles have not played yet (a cold start would first solve each player's decoupled
+        optimum, which the solo plan it drives already is, up to its real-time iteration)."""
+        plan = self.plans.get(vehicle)
+        if plan is None or self.options.get(vehicle) != option:
+            return None
+        return self.shifted(plan)
+
+    def held_option(self, vehicle: str, default: str) -> str:
+        """The exit lane ``vehicle`` holds: its last choice, else ``default``."""
+        return self.options.get(vehicle, default)
+
+    # ------------------------------------------------------------ warm starts
+    def store(self, key: WarmKey, now: float, plans: tuple[Plan, ...]) -> None:
+        """Keep ``plans`` solved at ``now`` [s] as the next warm start of ``key``."""
+        self._warm[key] = (now, plans)
+
+    def warm_start(self, key: WarmKey, now: float) -> tuple[Plan, ...] | None:
+        """The plans stored under ``key``, shifted by the control periods since they were solved
+        (a pair's game may pause while its trigger is off), or None when there are none or they
+        are older than half the horizon (little of them would be left to reuse)."""
+        entry = self._warm.get(key)
+        if entry is None:
+            return None
+        solved_at, plans = entry
+        periods = max(1, int(round((now - solved_at) / self.period)))
+        if periods * self.shift > self.steps // 2:
+            return None
+        return tuple(self.shifted(p, periods) for p in plans)
+
+    def has_game(self, a: str, b: str) -> bool:
+        """Whether any exit-lane combination of the pair (a, b) has a stored warm start."""
+        return any(isinstance(key, GameKey) and key.a == a and key.b == b for key in self._warm)
+
+    def keys(self) -> Iterable[WarmKey]:
+        return tuple(self._warm)

@@ -1,0 +1,54 @@
+"""A controlled vehicle as a player of a game or a solo problem: its state, kappa, desired speed
+and the predicted trajectory of its leader (J_log, paper Eqs. 15-18).
+
+The leader's trajectory is its previous plan shifted by one period when it is controlled,
+constant speed otherwise. The leader does not care about its follower (its cost has no term for
+it), so following is no game. On two paths that part (same approach lane, different exits) the
+leader counts only until its rear has left the shared stretch (:attr:`Leader.until`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from intersection_cosim.control.base import World
+from intersection_cosim.control.plan_memory import PlanMemory
+from intersection_cosim.control.relations import Leader, Relations
+from intersection_cosim.games.problem import Player
+
+FAR = 1.0e4  # [m] added to a leader's predicted position where it no longer constrains its follower
+
+
+def leader_trajectory(world: World, leader: Leader, memory: PlanMemory) -> tuple[np.ndarray, np.ndarray]:
+    """[m], [m/s] the leader's predicted positions (in its own path) and speeds s_1..s_N, v_1..v_N."""
+    k = leader.vehicle
+    plan = memory.plans.get(world.ids[k])
+    plan = memory.from_state(world, k, memory.shifted(plan).accelerations) if plan is not None \
+        else memory.coasting_plan(world, k)
+    s, v = plan.positions[1:], plan.speeds[1:]
+    parted = s > leader.until
+    if parted.any():  # past the end of the shared stretch the leader is out of the way
+        s = np.where(parted, s + FAR, s)
+    return s, v
+
+
+def desired_speed(world: World, k: int) -> float | None:
+    """[m/s] vehicle k's own desired speed, None for the model's v_max."""
+    if world.desired_speed is None or not math.isfinite(float(world.desired_speed[k])):
+        return None
+    return float(world.desired_speed[k])
+
+
+def player(world: World, k: int, option: str, relations: Relations, memory: PlanMemory,
+           partner: int | None = None) -> Player:
+    """Vehicle k taking exit lane ``option``; its leader enters as a fixed trajectory unless the
+    leader is ``partner``, the other player of the same game (then it is an interaction)."""
+    leader = relations.leader_of(k, option)
+    exo = None
+    if leader is not None and leader.vehicle != partner:
+        s_l, v_l = leader_trajectory(world, leader, memory)
+        exo = (s_l + leader.offset, v_l)
+    return Player(s0=float(world.s[k]), v0=float(world.v[k]), kappa=float(world.kappa[k]),
+                  v_max=desired_speed(world, k), name=world.ids[k], leader=exo)

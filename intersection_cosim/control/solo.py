@@ -1,0 +1,181 @@
+"""Vehicles in no game: their own best response (k_lat = 0: J_log and J_e only) and its
+event-triggered re-planning.
+
+A solo vehicle minimises its own cost against its leader's predicted trajectory, choosing its
+exit lane among its own options (J_lk, Eq. 23). It re-plans only when an input of that problem
+moved, else keeps its last plan shifted, which answers the same problem seen one period later
+(in the spirit of the paper's ETM; :meth:`SoloPlanner.reusable`). Its SQP runs as a real-time
+iteration: ``solo_max_iter`` steps per control period, continued from the applied plan at the
+next period.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from typing import Mapping, NamedTuple
+
+import numpy as np
+
+from intersection_cosim.control.anytime import SolveTimeEstimate
+from intersection_cosim.control.base import World
+from intersection_cosim.control.lane_options import LaneChangeCosts
+from intersection_cosim.control.plan_memory import PlanMemory, SoloKey
+from intersection_cosim.control.players import player
+from intersection_cosim.control.relations import Relations
+from intersection_cosim.games.lane_choice import lane_choice_game
+from intersection_cosim.games.nash import nash_equilibrium
+from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
+from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.paths import MovementPath
+
+log = logging.getLogger(__name__)
+
+OFF_PLAN_SPEED = 0.05  # [m/s] a measured speed this far from the plan's means the vehicle left it
+
+
+class SoloOutcome(NamedTuple):
+    plan: Plan
+    option: str  # exit lane
+    deferred: bool  # past the cutoff: the last plan kept, shifted
+
+
+class _LastSolve(NamedTuple):
+    age: int  # control steps since the solve
+    option: str  # exit lane solved for
+    leader: tuple | None  # the leader prediction (s [m], v [m/s]) the plan answered
+
+
+class SoloPlanner:
+    """Solo best responses of one controller, with what each vehicle's last solve answered."""
+
+    def __init__(self, settings: GameSettings, model: ModelSettings, memory: PlanMemory,
+                 lane_costs: LaneChangeCosts, paths: Mapping[str, MovementPath]):
+        self.gs, self.model, self.memory = settings, model, memory
+        self.lane_costs, self.paths = lane_costs, paths
+        # a solo vehicle's SQP stops after solo_max_iter steps and goes on at the next period
+        self.solo_gs = dataclasses.replace(settings, nash_max_iter=settings.solo_max_iter)
+        self._last: dict[str, _LastSolve] = {}
+
+    def forget(self, vehicle: str) -> None:
+        """Drop a vehicle's last solve (it left, joined a game, or its plan must be solved anew)."""
+        self._last.pop(vehicle, None)
+
+    def plan(self, world: World, k: int, options: tuple[str, ...], relations: Relations,
+             held_before: frozenset[str], estimate: SolveTimeEstimate, cutoff: float) -> SoloOutcome:
+        """Best response of vehicle k with its exit-lane choice among ``options``; past ``cutoff``
+        (perf_counter) a vehicle with a plan keeps it, shifted. ``held_before``: the vehicles the
+        safety filter held back at a crossing at the last step."""
+        vid = world.ids[k]
+        players = {o: player(world, k, o, relations, self.memory) for o in options}
+        if len(options) == 1:
+            kept = self.reusable(world, k, options[0], players[options[0]], held_before)
+            if kept is not None:
+                return SoloOutcome(kept, options[0], False)
+        if vid in self.memory.plans and not estimate.fits(1, cutoff):
+            estimate.deferred()
+            self.forget(vid)
+            default = self.paths[world.path_ids[k]].exit_lane
+            return SoloOutcome(self.memory.kept_plan(world, k, self.gs.comfort_brake),
+                               self.memory.held_option(vid, default), True)
+        t0 = time.perf_counter()
+        problems = {(o,): Problem((players[o],), ()) for o in options}
+        result, choice, results = self._solve(world, k, problems)
+        for combo, res in results.items():
+            if res.status != "solver failure":
+                self.memory.store(SoloKey(vid, combo[0]), world.time, res.plans)
+        estimate.measured(time.perf_counter() - t0)
+        return SoloOutcome(self._accept(world, vid, result, choice, problems, held_before), choice[0], False)
+
+    def _solve(self, world: World, k: int, problems: dict):
+        """Solve each exit lane's problem (warm from the plan k drives, else its last solo plan)
+        and choose among them."""
+        vid = world.ids[k]
+        warm = {}
+        for (o,) in problems:
+            if (driven := self.memory.driven_plan(vid, o)) is not None:
+                warm[(o,)] = (driven,)  # the plan it is driving (maybe a game's)
+            elif (start := self.memory.warm_start(SoloKey(vid, o), world.time)) is not None:
+                warm[(o,)] = start
+        if len(problems) == 1:
+            (combo, problem), = problems.items()
+            result = nash_equilibrium(problem, self.solo_gs, self.model, warm_start=warm.get(combo))
+            return result, combo, {combo: result}
+        path = self.paths[world.path_ids[k]]
+        costs = self.lane_costs.costs(path, tuple(o for (o,) in problems))
+        lc = lane_choice_game(problems, [costs], solver=nash_equilibrium, settings=self.solo_gs,
+                              model_settings=self.model, warm_starts=warm)
+        return lc.result, lc.choice, lc.results
+
+    def _accept(self, world: World, vid: str, result, choice, problems, held_before) -> Plan:
+        """The plan to apply, and whether the next step may reuse it."""
+        if result.status == "solver failure":
+            log.warning("t=%.2f s: best response of %s failed (%s); braking comfortably",
+                        world.time, vid, result.message)
+            self.forget(vid)
+            return safe_plan(problems[choice].players[0], self.gs)
+        if (result.status != "converged" and vid not in held_before
+                and not (result.residuals and result.residuals[-1] < self.gs.nash_tol)):
+            # real-time iteration: the capped SQP continues from this plan at the next step. A
+            # capped step that moved the plan less than nash_tol counts as converged, and so
+            # does the plan of a vehicle the filter holds back (its plan is only the intent the
+            # filter checks)
+            self.forget(vid)
+        else:
+            self._last[vid] = _LastSolve(0, choice[0], problems[choice].players[0].leader)
+        return result.plans[0]
+
+    def reusable(self, world: World, k: int, option: str, player_now: Player,
+                 held_before: frozenset[str]) -> Plan | None:
+        """The last plan, shifted and re-anchored at the measured state, when the problem is the
+        last solve's problem moved on in time; None when it must be solved again.
+
+        It is the same problem when the measured state is where the last plan put it and the
+        leader's prediction is the one it answered (shifted, within ``solo_leader_tol``, or
+        moved only where J_log is zero along the plan), and the shifted plan stays within the
+        speed limits; at the latest after ``free_resolve_steps`` steps it is solved again. A
+        vehicle the safety filter held back at a crossing is off its plan by the filter's doing,
+        so its plan (its intent, which the filter goes on checking) is kept until it is due.
+        """
+        vid = world.ids[k]
+        last, plan = self._last.get(vid), self.memory.plans.get(vid)
+        if last is None or plan is None:
+            return None
+        if (last.age + 1 >= self.gs.free_resolve_steps or last.option != option
+                or self.memory.options.get(vid) != option or (last.leader is None) != (player_now.leader is None)):
+            return None
+        plan = self.memory.shifted(plan)
+        v_cap = player_now.v_max if player_now.v_max is not None else self.model.v_max  # [m/s]
+        off_plan = abs(plan.speeds[0] - float(world.v[k])) > OFF_PLAN_SPEED and vid not in held_before
+        if off_plan or plan.speeds.max() > v_cap + 1e-6:
+            return None
+        if player_now.leader is not None and self._leader_moved(plan, last, player_now.leader):
+            return None
+        self._last[vid] = _LastSolve(last.age + 1, option, last.leader)
+        return self.memory.from_state(world, k, plan.accelerations)
+
+    def _leader_moved(self, plan: Plan, last: _LastSolve, leader_now: tuple) -> bool:
+        """Whether the leader's prediction moved since the solve where it matters to ``plan``."""
+        lag = (last.age + 1) * self.memory.shift  # [steps] since the solve
+        s_then, v_then = last.leader
+        s_now, v_now = leader_now
+        m = len(s_now) - lag
+        if m <= 0:
+            return True
+        tol = self.gs.solo_leader_tol
+        moved = (np.abs(s_now[:m] - s_then[lag:]).max() > tol or np.abs(v_now[:m] - v_then[lag:]).max() > tol)
+        # a moved prediction matters only where it enters the cost: J_log is zero along a plan
+        # that is never faster than the leader and never overlaps it, under the old prediction
+        # (so the plan did not answer it) and the new one (so it need not)
+        return moved and not (self._leader_inactive(plan, s_then[lag:], v_then[lag:])
+                              and self._leader_inactive(plan, s_now, v_now))
+
+    def _leader_inactive(self, plan: Plan, s_lead: np.ndarray, v_lead: np.ndarray) -> bool:
+        """True when J_log (Eqs. 15-18) is zero along ``plan`` against a leader predicted at
+        ``s_lead`` (follower frame, front) [m] and ``v_lead`` [m/s] over the plan's first steps:
+        the follower is never faster than the leader (TTC_log infinite) and never overlaps it."""
+        n = len(s_lead)
+        v, s = plan.speeds[1:n + 1], plan.positions[1:n + 1]
+        return bool(np.all(v <= v_lead) and np.all(s_lead - self.model.vehicle_length - s >= 0.0))
