@@ -70,8 +70,8 @@ def run(count: int, steps: int, seed: int) -> dict:
     out["ratio_stackelberg_to_nash_warm"] = round(out["stackelberg_warm"]["median_ms"]
                                                   / out["nash_warm"]["median_ms"], 3)
     out["statuses"] = statuses
-    out["battery"] = {"pairs": count, "steps_per_pair": steps, "seed": seed, "horizon_s": gs.horizon,
-                      "dt_s": gs.dt}
+    out["battery"] = {"pairs": count, "steps_per_pair": steps, "seed": seed, "horizon_s": gs.problem.horizon,
+                      "dt_s": gs.problem.dt}
     out["machine"] = {"python": platform.python_version(), "processor": platform.machine()}
     return out
 

@@ -305,12 +305,13 @@ def md_table(df: pd.DataFrame) -> str:
 
 def defaults(runs: Runs, cases: list[str]) -> tuple[dict, dict, str]:
     s = next((runs.summary(c, "nash") for c in cases if runs.ok(c, "nash")), None) or {}
-    model, solver = s.get("settings", {}).get("model") or {}, s.get("settings", {}).get("solver")
+    model, tables = s.get("settings", {}).get("model") or {}, s.get("settings", {}).get("controller_settings")
     note = "from summary.json"
-    if solver is None:  # the CLI's --controller override leaves settings.solver null; the controller uses these
-        from intersection_cosim.games.settings import GameSettings
+    if tables is None:  # the CLI's --controller override leaves it null; the controller uses these
+        from intersection_cosim.control.settings import GameControllerSettings
 
-        solver, note = dataclasses.asdict(GameSettings()), "summary.json has null; GameSettings() defaults"
+        tables, note = dataclasses.asdict(GameControllerSettings()), "summary.json has null; the defaults"
+    solver = {f"{table}.{key}": value for table, fields in tables.items() for key, value in fields.items()}
     return model, solver, note
 
 
@@ -325,7 +326,8 @@ def write_report(out: Path, cases, tables, figs, failures, wall, budget_ms, mode
     parts += ["## Figures", ""] + [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figs] + [""]
     parts += ["## Defaults", "", "Calibrated defaults, `settings.model`:", "",
               md_table(pd.DataFrame(list(model.items()), columns=["field", "value"])), "",
-              f"`settings.solver` ({note}):", "",
+              f"`settings.controller_settings`, the `[controller.game]`, `[controller.solver]`, "
+              f"`[controller.policy]` and `[controller.safety]` tables ({note}):", "",
               md_table(pd.DataFrame([(k, str(v)) for k, v in solver.items()], columns=["field", "value"])), ""]
     tmp = out / "report.md.tmp"
     tmp.write_text("\n".join(parts))

@@ -63,7 +63,7 @@ class ControlContext:
     net_file: str  # the SUMO net the run uses (for the precomputed conflict table)
     model: ModelSettings
     control_period: float  # [s]
-    solver: object  # the controller's validated [controller.solver] settings (or None)
+    settings: object  # the controller's validated [controller.*] settings (None: its defaults)
     etm: bool  # event-triggered mechanism on
 
 

@@ -141,8 +141,8 @@ class FcfsController:
 
     def setup(self, context: ControlContext) -> None:
         self.ctx = context
-        if isinstance(context.solver, FcfsSettings):
-            self.fs = context.solver
+        if isinstance(context.settings, FcfsSettings):
+            self.fs = context.settings
         self.paths = context.paths
         self.model = context.model
         self.table = load_conflict_table(context.net_file, context.model.vehicle_width,

@@ -48,7 +48,7 @@ from intersection_cosim.control.solo import SoloPlanner
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
 from intersection_cosim.games.qp import reset_workspaces, solve_count
-from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.network.conflicts import load_conflict_table
 
@@ -89,11 +89,12 @@ class GameController:
 
     controls_vehicles = True
 
-    def __init__(self, equilibrium: str, settings: GameSettings | None = None, junction_type: str = "priority"):
+    def __init__(self, equilibrium: str, settings: GameControllerSettings | None = None,
+                 junction_type: str = "priority"):
         if equilibrium not in EQUILIBRIA:
             raise ValueError(equilibrium)
         self.equilibrium = equilibrium
-        self.gs = settings or GameSettings()
+        self.settings = settings or GameControllerSettings()
         self.junction_type = junction_type
         self.controlled: set[str] = set()
         self.convergence: list[ConvergenceRecord] = []
@@ -105,17 +106,19 @@ class GameController:
 
     # ------------------------------------------------------------------ setup
     def setup(self, context: ControlContext) -> None:
-        if context.solver is not None:
-            self.gs = context.solver
+        if context.settings is not None:
+            self.settings = context.settings
+        game = self.settings.game
         self.ctx, self.model, self.paths = context, context.model, context.paths
         self.table = load_conflict_table(context.net_file, context.model.vehicle_width, context.model.vehicle_length)
-        shift = max(1, int(round(context.control_period / self.gs.dt)))
-        self.memory = PlanMemory(shift, context.control_period, self.gs.steps, self.gs.dt)
+        shift = max(1, int(round(context.control_period / game.dt)))
+        self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt)
         lane_costs = LaneChangeCosts(context.net_file, context.paths, context.model)
-        self.solver = GameSolver(EQUILIBRIA[self.equilibrium], self.equilibrium, self.gs, self.model,
+        self.solver = GameSolver(EQUILIBRIA[self.equilibrium], self.equilibrium, self.settings.games, self.model,
                                  lane_costs, context.paths)
-        self.solo = SoloPlanner(self.gs, self.model, self.memory, lane_costs, context.paths)
-        self.safety = SafetyFilter(self.gs, self.model, self.table.s_stop, context.control_period)
+        self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.paths)
+        self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
+                                   context.control_period)
         self.schedule = AnytimeSchedule()
         reset_workspaces()
         self._warm_up()
@@ -125,8 +128,8 @@ class GameController:
         imports are built outside the timed control loop (a first step over its budget would
         make the run depend on the machine's speed)."""
         problem = Problem((Player(0.0, 5.0, 0.5), Player(0.0, 5.0, 0.5)), (Interaction.cross(0, 1, 15.0, 14.0),))
-        self.solver.equilibrium(problem, self.gs, self.model)
-        nash_equilibrium(Problem((Player(0.0, 5.0, 0.5),)), self.gs, self.model)
+        self.solver.equilibrium(problem, self.solver.settings, self.model)
+        nash_equilibrium(Problem((Player(0.0, 5.0, 0.5),)), self.solver.settings, self.model)
 
     def diagnostics(self) -> Diagnostics:
         return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared)
@@ -149,9 +152,9 @@ class GameController:
         self.memory.prune_warm({world.ids[k] for k in active})
         relations = self._relations(world, set(active))
         lanes = lane_options(world, relations, self.paths, self.memory.options, self._choice_age,
-                             self.gs.lane_choice_period)
+                             self.settings.policy.lane_choice_period)
         self._choice_age = dict(lanes.choice_age)
-        cutoff = step_cutoff(deadline, self.gs.anytime_reserve)
+        cutoff = step_cutoff(deadline, self.settings.policy.anytime_reserve)
         in_game = self._play_games(world, relations, lanes.options, cutoff, decisions)
         for k in active:
             if k in in_game:
@@ -183,7 +186,7 @@ class GameController:
         default = {world.ids[k]: self.paths[world.path_ids[k]].exit_lane for k in range(len(world))}
         held = {vid: self.memory.held_option(vid, exit_lane) for vid, exit_lane in default.items()}
         return step_relations(world, active, self.paths, self.table, self.model, self.ctx.etm, held,
-                              self.gs.lane_choice_range)
+                              self.settings.policy.lane_choice_range)
 
     def _play_games(self, world: World, relations: Relations, options, cutoff: float,
                     decisions: Decisions) -> dict[int, list[Choice]]:
@@ -219,7 +222,7 @@ class GameController:
             tuple(float(r) for r in result.residuals), tuple(float(c) for c in result.costs)))
 
     def _kept_choice(self, world: World, k: int) -> Choice:
-        plan = self.memory.kept_plan(world, k, self.gs.comfort_brake)
+        plan = self.memory.kept_plan(world, k, self.settings.game.comfort_brake)
         option = self.memory.held_option(world.ids[k], self.paths[world.path_ids[k]].exit_lane)
         return Choice(float(plan.accelerations[0]), plan, option)
 
@@ -231,7 +234,7 @@ class GameController:
             decisions.exit_lane[vid] = option
 
     def _filter(self, world: World, relations: Relations, decisions: Decisions) -> None:
-        if self.gs.safety_filter:
+        if self.settings.safety.safety_filter:
             held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions)
             self._held = self._held | held
 
@@ -255,7 +258,7 @@ class GameController:
             if world.role[k] == "outside":
                 continue
             active.add(k)
-            plan = self.memory.kept_plan(world, k, self.gs.comfort_brake)
+            plan = self.memory.kept_plan(world, k, self.settings.game.comfort_brake)
             self.memory.plans[vid] = plan
             decisions.accel[vid] = max(float(plan.accelerations[0]), -float(world.v[k]) / period)
             self.controlled.add(vid)

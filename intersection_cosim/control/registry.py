@@ -1,11 +1,13 @@
 """Registry of controllers by name: the only place that knows every controller.
 
-Each entry maps a name to a factory ``(scenario) -> Controller`` and the settings class of its
-``[controller.solver]`` table (None if it takes none).
+Each entry maps a name to a factory ``(scenario) -> Controller`` and the class of its settings,
+read from the scenario's ``[controller.<table>]`` sub-tables (None if it takes none).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import typing
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -16,8 +18,10 @@ from intersection_cosim.settings import from_table
 @dataclass(frozen=True)
 class Entry:
     factory: Callable[[Any], Any]  # (Scenario) -> Controller
-    solver_settings: type | None = None
+    settings: type | None = None  # class of the controller's validated settings (None: takes none)
     description: str = ""
+    table: str | None = None  # the one [controller.<table>] its settings come from; None: the
+    #                           settings class has one field per sub-table ([controller.game], ...)
 
 
 _REGISTRY: dict[str, Entry] = {}
@@ -37,14 +41,35 @@ def get(name: str) -> Entry:
     return _REGISTRY[name]
 
 
-def validate_solver_table(kind: str, table: dict, src: str) -> Any:
+def validate_tables(kind: str, tables: dict[str, dict], src: str) -> Any:
+    """The settings of controller ``kind`` from its ``[controller.<table>]`` sub-tables (table
+    name -> raw table); a key in a table it does not belong to is an InputError naming the table
+    it belongs in."""
     entry = get(kind)
-    if entry.solver_settings is None:
-        if table:
-            key = next(iter(table))
-            raise InputError(src, f"controller.solver.{key}", table[key], f"the {kind} controller takes no solver settings")
-        return None
-    return from_table(entry.solver_settings, table, src, "controller.solver")
+    given = {name: table for name, table in tables.items() if table}
+    if entry.settings is None or entry.table is not None:
+        for name, table in given.items():
+            if name != entry.table:
+                key = next(iter(table))
+                what = "no settings" if entry.settings is None else f"only [controller.{entry.table}]"
+                raise InputError(src, f"controller.{name}.{key}", table[key], f"the {kind} controller takes {what}")
+        if entry.settings is None:
+            return None
+        return from_table(entry.settings, given.get(entry.table), src, f"controller.{entry.table}")
+    _check_moved_keys(entry.settings, given, src)
+    return from_table(entry.settings, given, src, "controller")
+
+
+def _check_moved_keys(settings: type, tables: dict[str, dict], src: str) -> None:
+    hints = typing.get_type_hints(settings)  # sub-table name -> its settings class
+    fields = {f.name: {g.name for g in dataclasses.fields(hints[f.name])} for f in dataclasses.fields(settings)}
+    for name, table in tables.items():
+        for key, value in table.items():
+            if name in fields and key in fields[name]:
+                continue
+            home = [other for other, keys in fields.items() if key in keys]
+            if home:
+                raise InputError(src, f"controller.{name}.{key}", value, f"moved to [controller.{home[0]}]")
 
 
 def create(scenario) -> Any:
@@ -70,13 +95,14 @@ def _load_builtin() -> None:
                              None, f"baseline: SUMO's driver model at a {what}"))
 
     from intersection_cosim.control.game import GameController
-    from intersection_cosim.games.settings import GameSettings
+    from intersection_cosim.control.settings import GameControllerSettings
 
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
-        register(name, Entry(lambda scn, name=name: GameController(name, scn.solver),
-                             GameSettings, f"the paper's differential game, {what} equilibrium"))
+        register(name, Entry(lambda scn, name=name: GameController(name, scn.controller_settings),
+                             GameControllerSettings, f"the paper's differential game, {what} equilibrium"))
 
     from intersection_cosim.control.fcfs import FcfsController, FcfsSettings
 
-    register("fcfs", Entry(lambda scn: FcfsController(scn.solver), FcfsSettings,
-                           "first-come-first-served reservation of the conflict points (Dresner and Stone)"))
+    register("fcfs", Entry(lambda scn: FcfsController(scn.controller_settings), FcfsSettings,
+                           "first-come-first-served reservation of the conflict points (Dresner and Stone)",
+                           table="solver"))

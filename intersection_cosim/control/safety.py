@@ -18,7 +18,7 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   in, first out), ahead of every vehicle not yet in; among those, the one that would reach the
   crossing first ranks higher (by default at its current speed: the smaller time to the
   crossing, the paper's rule for the Stackelberg leader, except that a pair that played its
-  game keeps the game's order, by its plans; ``GameSettings.yield_order = "plan"`` ranks every
+  game keeps the game's order, by its plans; ``SafetySettings.yield_order = "plan"`` ranks every
   pair by this step's plans). The lower-ranked one yields if it can still stay out of
   its zone: it brakes to stop ``safety_margin`` before it (a = -v^2 / 2d, at most |a_min|), or at its stop
   line if it has not reached it (as in AIM, a vehicle enters only to clear: one stopped inside
@@ -44,7 +44,8 @@ import numpy as np
 from intersection_cosim.control.base import Decisions, World
 from intersection_cosim.control.relations import Lateral, Relations
 from intersection_cosim.games.problem import Plan
-from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
 
@@ -115,8 +116,9 @@ class SafetyFilter:
     ``s_stop`` [m]: each conflict-table path's stop line; ``period`` [s]: the control period.
     """
 
-    def __init__(self, settings: GameSettings, model: ModelSettings, s_stop: np.ndarray, period: float):
-        self.gs, self.model, self.s_stop, self.period = settings, model, s_stop, period
+    def __init__(self, settings: SafetySettings, problem: ProblemSettings, model: ModelSettings,
+                 s_stop: np.ndarray, period: float):
+        self.settings, self.problem, self.model, self.s_stop, self.period = settings, problem, model, s_stop, period
         self.entered: dict[str, float] = {}  # [s] when each vehicle entered the junction (the queue)
         self.filtered = 0  # accelerations the filter lowered
         self.cleared = 0  # accelerations the filter raised to clear a crossing (box rule)
@@ -149,11 +151,11 @@ class SafetyFilter:
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
         for _pass in range(2):
             for vid in clear:
-                if vid in plans and float(plans[vid].accelerations[0]) < self.gs.clear_accel:
-                    plans[vid] = braking_plan(plans[vid], self.gs.clear_accel)  # constant: it drives on
+                if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:
+                    plans[vid] = braking_plan(plans[vid], self.settings.clear_accel)  # constant: it drives on
             for vid, limit in cap.items():
                 if vid in plans and limit < float(plans[vid].accelerations[0]):
-                    plans[vid] = braking_plan(plans[vid], max(limit, self.gs.a_min))
+                    plans[vid] = braking_plan(plans[vid], max(limit, self.problem.a_min))
             for lat in relations.lateral:
                 if chosen[lat.ri] and chosen[lat.rj]:
                     self._guard(world, relations, lat, plans, cap, clear)
@@ -161,32 +163,32 @@ class SafetyFilter:
 
     def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions) -> dict[str, float]:
         """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed."""
-        gs, rows = self.gs, relations.rows
+        st, rows = self.settings, relations.rows
         cap: dict[str, float] = {}
         for r, lead in relations.leaders.items():
             k = int(rows.vehicle[r])
             vid = world.ids[k]
             if vid not in decisions.accel or not chosen[r]:
                 continue
-            gap = lead.gap - self.model.vehicle_length - gs.safety_margin  # [m] bumper to bumper, less margin
-            v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -gs.a_min, self.period)
+            gap = lead.gap - self.model.vehicle_length - st.safety_margin  # [m] bumper to bumper, less margin
+            v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self.problem.a_min, self.period)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k])) / self.period)
         return cap
 
     def _enforce(self, decisions: Decisions, cap: dict[str, float], leader_cap: dict[str, float],
                  clear: set[str]) -> frozenset[str]:
-        gs = self.gs
+        st = self.settings
         held = set()
         for vid in clear:
             # the box rule: a vehicle inside a crossing that another waits for clears it (its own
             # plan may wait for the other, as a game played before the wait can say), unless a
             # cap of its own holds it back
-            if vid in decisions.accel and decisions.accel[vid] < gs.clear_accel:
-                decisions.accel[vid] = min(gs.clear_accel, cap.get(vid, math.inf))
+            if vid in decisions.accel and decisions.accel[vid] < st.clear_accel:
+                decisions.accel[vid] = min(st.clear_accel, cap.get(vid, math.inf))
                 self.cleared += 1
         for vid, limit in cap.items():
             if vid in decisions.accel and limit < decisions.accel[vid]:
-                decisions.accel[vid] = max(limit, gs.a_min)
+                decisions.accel[vid] = max(limit, self.problem.a_min)
                 self.filtered += 1
                 if limit < leader_cap.get(vid, math.inf):  # held back at a crossing
                     held.add(vid)
@@ -201,14 +203,14 @@ class SafetyFilter:
         lower-ranked one holds back as hard as it may while the other clears the crossing. A
         higher-ranked vehicle already inside its zone that a lower-ranked one yields to is put
         in ``clear``: it must drive out."""
-        gs, ids = self.gs, world.ids
+        st, ids = self.settings, world.ids
         ki, kj = int(relations.rows.vehicle[lat.ri]), int(relations.rows.vehicle[lat.rj])
         pi, pj = self._plan_of(world, ki, plans), self._plan_of(world, kj, plans)
         if pi is None or pj is None:
             return
         in_i, out_i = occupancy(pi, *lat.zone_i)
         in_j, out_j = occupancy(pj, *lat.zone_j)
-        if in_i >= out_j + gs.safety_time_gap or in_j >= out_i + gs.safety_time_gap:
+        if in_i >= out_j + st.safety_time_gap or in_j >= out_i + st.safety_time_gap:
             return  # the plans keep the crossing clear
         ti, tj = self._arrival(world, lat, ki, kj, in_i, in_j)
         lower_first = sorted((_Crossing(self._rank(world, ki, ti), ki, lat.ri, lat.zone_i[0]),
@@ -219,18 +221,18 @@ class SafetyFilter:
             if a is not None:
                 cap[ids[c.k]] = min(cap.get(ids[c.k], math.inf), a)
                 other = lower_first[1]
-                if n == 0 and float(world.s[other.k]) >= other.enter and float(world.v[other.k]) < gs.clear_speed:
+                if n == 0 and float(world.s[other.k]) >= other.enter and float(world.v[other.k]) < st.clear_speed:
                     clear.add(ids[other.k])
                 return
         k = lower_first[0].k
-        cap[ids[k]] = min(cap.get(ids[k], math.inf), max(gs.a_min, -float(world.v[k]) / self.period))
+        cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self.problem.a_min, -float(world.v[k]) / self.period))
 
     def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan]) -> Plan | None:
         """The plan the filter checks for vehicle k: this step's, or constant speed for one
         SUMO drives again (it has left the junction); None for one without a plan."""
         plan = plans.get(world.ids[k])
         if plan is None and world.role[k] == "outside":
-            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.gs.steps), self.gs.dt)
+            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.problem.steps), self.problem.dt)
         return plan
 
     def _arrival(self, world: World, lat: Lateral, ki: int, kj: int, in_i: float, in_j: float) -> tuple[float, float]:
@@ -238,7 +240,7 @@ class SafetyFilter:
         "tcp"``, Eqs. 21-22); by the plans for ``"plan"`` and for a pair that played its game this
         step, which keeps the equilibrium's order (the filter never overrules a game's
         decision, it only enforces it)."""
-        if self.gs.yield_order == "tcp" and not lat.play:
+        if self.settings.yield_order == "tcp" and not lat.play:
             floor = self.model.tcp_speed_floor
             return (time_to_conflict_point(lat.zone_i[0] - float(world.s[ki]), float(world.v[ki]), floor),
                     time_to_conflict_point(lat.zone_j[0] - float(world.s[kj]), float(world.v[kj]), floor))
@@ -260,14 +262,14 @@ class SafetyFilter:
         stop at its stop line (less the margin) if it has not reached it and can, else before
         the zone (less the margin, or at its edge when already within the margin); None if it
         cannot any more (inside, or too fast)."""
-        gs = self.gs
+        st = self.settings
         s_k, v_k = float(world.s[k]), float(world.v[k])
         if s_k >= enter:
             return None
-        for target in (s_stop - gs.safety_margin, enter - gs.safety_margin, enter - 0.05):
+        for target in (s_stop - st.safety_margin, enter - st.safety_margin, enter - 0.05):
             if target <= s_k:
                 continue
             a = stopping_acceleration(s_k, v_k, target)
-            if a is not None and a >= gs.a_min:
+            if a is not None and a >= self.problem.a_min:
                 return a
-        return max(gs.a_min, -v_k / self.period) if v_k < 0.1 else None
+        return max(self.problem.a_min, -v_k / self.period) if v_k < 0.1 else None

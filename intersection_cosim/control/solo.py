@@ -27,6 +27,7 @@ from intersection_cosim.control.relations import Relations
 from intersection_cosim.games.lane_choice import lane_choice_game
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
+from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.paths import MovementPath
@@ -51,12 +52,13 @@ class _LastSolve(NamedTuple):
 class SoloPlanner:
     """Solo best responses of one controller, with what each vehicle's last solve answered."""
 
-    def __init__(self, settings: GameSettings, model: ModelSettings, memory: PlanMemory,
+    def __init__(self, settings: GameControllerSettings, model: ModelSettings, memory: PlanMemory,
                  lane_costs: LaneChangeCosts, paths: Mapping[str, MovementPath]):
-        self.gs, self.model, self.memory = settings, model, memory
+        self.settings, self.policy, self.model, self.memory = settings, settings.policy, model, memory
         self.lane_costs, self.paths = lane_costs, paths
         # a solo vehicle's SQP stops after solo_max_iter steps and goes on at the next period
-        self.solo_gs = dataclasses.replace(settings, nash_max_iter=settings.solo_max_iter)
+        self.solo_gs = GameSettings(settings.game, dataclasses.replace(settings.solver,
+                                                                       nash_max_iter=settings.policy.solo_max_iter))
         self._last: dict[str, _LastSolve] = {}
 
     def forget(self, vehicle: str) -> None:
@@ -78,7 +80,7 @@ class SoloPlanner:
             estimate.deferred()
             self.forget(vid)
             default = self.paths[world.path_ids[k]].exit_lane
-            return SoloOutcome(self.memory.kept_plan(world, k, self.gs.comfort_brake),
+            return SoloOutcome(self.memory.kept_plan(world, k, self.settings.game.comfort_brake),
                                self.memory.held_option(vid, default), True)
         t0 = time.perf_counter()
         problems = {(o,): Problem((players[o],), ()) for o in options}
@@ -115,9 +117,9 @@ class SoloPlanner:
             log.warning("t=%.2f s: best response of %s failed (%s); braking comfortably",
                         world.time, vid, result.message)
             self.forget(vid)
-            return safe_plan(problems[choice].players[0], self.gs)
+            return safe_plan(problems[choice].players[0], self.settings.games)
         if (result.status != "converged" and vid not in held_before
-                and not (result.residuals and result.residuals[-1] < self.gs.nash_tol)):
+                and not (result.residuals and result.residuals[-1] < self.settings.solver.nash_tol)):
             # real-time iteration: the capped SQP continues from this plan at the next step. A
             # capped step that moved the plan less than nash_tol counts as converged, and so
             # does the plan of a vehicle the filter holds back (its plan is only the intent the
@@ -143,7 +145,7 @@ class SoloPlanner:
         last, plan = self._last.get(vid), self.memory.plans.get(vid)
         if last is None or plan is None:
             return None
-        if (last.age + 1 >= self.gs.free_resolve_steps or last.option != option
+        if (last.age + 1 >= self.policy.free_resolve_steps or last.option != option
                 or self.memory.options.get(vid) != option or (last.leader is None) != (player_now.leader is None)):
             return None
         plan = self.memory.shifted(plan)
@@ -164,7 +166,7 @@ class SoloPlanner:
         m = len(s_now) - lag
         if m <= 0:
             return True
-        tol = self.gs.solo_leader_tol
+        tol = self.policy.solo_leader_tol
         moved = (np.abs(s_now[:m] - s_then[lag:]).max() > tol or np.abs(v_now[:m] - v_then[lag:]).max() > tol)
         # a moved prediction matters only where it enters the cost: J_log is zero along a plan
         # that is never faster than the leader and never overlaps it, under the old prediction

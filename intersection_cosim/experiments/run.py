@@ -132,7 +132,7 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         raise InputError(scn.source, "controller.period", scn.controller.period,
                          f"must be a multiple of scenario.step_length ({s.step_length:g} s)")
     controller.setup(ControlContext(paths=paths, net_file=str(net), model=scn.model, control_period=scn.controller.period,
-                                    solver=scn.solver, etm=scn.controller.etm))
+                                    settings=scn.controller_settings, etm=scn.controller.etm))
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length, exit_distance=s.exit_distance)
 
@@ -191,7 +191,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     summary = {
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
         "settings": {"scenario": to_dict(s), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
-                     "solver": to_dict(scn.solver) if dataclasses.is_dataclass(scn.solver) else None},
+                     "controller_settings": to_dict(scn.controller_settings)
+                     if dataclasses.is_dataclass(scn.controller_settings) else None},
         "versions": _versions(),
         "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
                    "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),

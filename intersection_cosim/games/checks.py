@@ -100,16 +100,16 @@ def best_deviation(problem: Problem, plans: Sequence[Plan], player: int,
     ms = model_settings or ModelSettings()
     obj = PlayerObjective(problem, player, gs, ms)
     obj.set_others(plans)
-    n, dt = obj.n, gs.dt
+    n, dt = obj.n, gs.problem.dt
     a_eq = np.asarray(plans[player].accelerations, dtype=float)
     cost_eq = float(obj.cost(a_eq))
     Lv = np.tril(np.ones((n, n))) * dt
     cons = ({"type": "ineq", "fun": lambda a: obj.v0 + Lv @ a, "jac": lambda a: Lv},
             {"type": "ineq", "fun": lambda a: obj.v_cap - obj.v0 - Lv @ a, "jac": lambda a: -Lv})
     rng = np.random.default_rng(seed)
-    candidates = [a_eq, np.full(n, gs.a_max), np.full(n, -gs.comfort_brake), np.zeros(n)]
+    candidates = [a_eq, np.full(n, gs.problem.a_max), np.full(n, -gs.problem.comfort_brake), np.zeros(n)]
     while len(candidates) < starts:
-        candidates.append(rng.uniform(gs.a_min, gs.a_max, n))
+        candidates.append(rng.uniform(gs.problem.a_min, gs.problem.a_max, n))
     best_a, best_c = a_eq, cost_eq
 
     def fun(a):
@@ -117,7 +117,7 @@ def best_deviation(problem: Problem, plans: Sequence[Plan], player: int,
 
     for a0 in candidates[:max(starts, 1)]:
         a0 = project_accelerations(a0, obj.v0, obj.v_cap, gs)
-        res = minimize(fun, a0, jac=True, method="SLSQP", bounds=[(gs.a_min, gs.a_max)] * n,
+        res = minimize(fun, a0, jac=True, method="SLSQP", bounds=[(gs.problem.a_min, gs.problem.a_max)] * n,
                        constraints=cons, options={"maxiter": 300, "ftol": 1e-12})
         a = project_accelerations(res.x, obj.v0, obj.v_cap, gs)  # remove SLSQP's tiny violations
         c = float(obj.cost(a))

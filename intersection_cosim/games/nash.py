@@ -76,11 +76,11 @@ class _Game:
         if bad:
             raise SolverFailure("; ".join(bad))
         self.problem, self.gs, self.ms = problem, gs, ms
-        self.n, self.N, self.dt = problem.n, gs.steps, gs.dt
+        self.n, self.N, self.dt = problem.n, gs.problem.steps, gs.problem.dt
         self.objs = [PlayerObjective(problem, p, gs, ms) for p in range(self.n)]
         self.ws = [workspace(self.N, gs, (tag, p)) for p in range(self.n)]
         self.qp_count = 0
-        self.delta = [gs.trust_region] * self.n
+        self.delta = [gs.solver.trust_region] * self.n
         self.gain = [0.0] * self.n  # relative cost decrease of each player's last response
         self.known_cost: list[float | None] = [None] * self.n  # cost valid for the current plans
         # per player: (model Hessian, own plan and partners' plans where it was computed)
@@ -137,7 +137,7 @@ class _Game:
         if stored is None:
             return None
         H, at, partner_plans = stored
-        tol = self.gs.hessian_refresh
+        tol = self.gs.solver.hessian_refresh
         if np.abs(a - at).max() > tol:
             return None
         for q, aq in zip(self.partners[p], partner_plans):
@@ -172,19 +172,19 @@ def _iterate(game: _Game, plans: list[Plan], deadline: float | None, max_iter: i
             status = "deadline"
             break
         old = [p.accelerations for p in plans]
-        if gs.scheme == "jacobi":
+        if gs.solver.scheme == "jacobi":
             frozen = list(plans)
-            plans = [game.respond(p, frozen, gs.sqp_steps_per_iteration) for p in range(game.n)]
+            plans = [game.respond(p, frozen, gs.solver.sqp_steps_per_iteration) for p in range(game.n)]
             game.known_cost = [None] * game.n  # each answered the old plans of the others
         else:
             for p in range(game.n):
-                plans[p] = game.respond(p, plans, gs.sqp_steps_per_iteration)
+                plans[p] = game.respond(p, plans, gs.solver.sqp_steps_per_iteration)
         res = max(float(np.max(np.abs(plans[p].accelerations - old[p]))) for p in range(game.n))
         residuals.append(res)
         if record_costs:
             history.append(game.costs(plans))
         per_iteration = max(per_iteration, time.perf_counter() - start)
-        if res < gs.nash_tol or (res < gs.nash_cost_guard and max(game.gain) < gs.nash_cost_rtol):
+        if res < gs.solver.nash_tol or (res < gs.solver.nash_cost_guard and max(game.gain) < gs.solver.nash_cost_rtol):
             status = "converged"
             break
     return plans, residuals, history, status
@@ -216,7 +216,7 @@ def nash_equilibrium(problem: Problem, settings: GameSettings | None = None,
             return _finish(game, plans, [], "deadline", t0, [])
         if cold:
             starts = [game.decoupled_start()]
-            if gs.cold_start_orders:
+            if gs.solver.cold_start_orders:
                 starts += _order_starts(game)
         else:
             dec = None
@@ -231,7 +231,7 @@ def nash_equilibrium(problem: Problem, settings: GameSettings | None = None,
         best = None
         for plans in starts:
             plans, residuals, history, status = _iterate(game, list(plans), deadline,
-                                                         gs.nash_max_iter, record_costs)
+                                                         gs.solver.nash_max_iter, record_costs)
             total = float(np.sum(game.costs(plans))) if len(starts) > 1 else 0.0
             rank = (status != "converged", total)
             if best is None or rank < best[0]:
@@ -260,9 +260,9 @@ def _order_starts(game: _Game) -> list[list[Plan]]:
         for p in range(game.n):
             obj = game.objs[p]
             if p == first:
-                a = np.full(game.N, gs.a_max)
+                a = np.full(game.N, gs.problem.a_max)
             elif p in partners:
-                a = np.full(game.N, -gs.comfort_brake)
+                a = np.full(game.N, -gs.problem.comfort_brake)
             else:
                 a = np.zeros(game.N)
             plans.append(game.plan(p, initial_accelerations(obj, a, gs)))

@@ -71,7 +71,7 @@ class PlayerObjective:
     def __init__(self, problem: Problem, p: int, gs: GameSettings, ms: ModelSettings):
         pl: Player = problem.players[p]
         self.p, self.gs, self.ms = p, gs, ms
-        self.n, self.dt = gs.steps, gs.dt
+        self.n, self.dt = gs.problem.steps, gs.problem.dt
         dt = self.dt
         self.hm = hm = horizon_matrices(self.n, dt)
         self.s0, self.v0, self.kappa = float(pl.s0), float(pl.v0), float(pl.kappa)
@@ -84,7 +84,7 @@ class PlayerObjective:
         self.w_lat = dt * (1.0 - self.kappa) * ms.k_lat  # [s] weight of J_lat per step
         self.w_log = dt * (1.0 - self.kappa) * ms.k_log  # [s] weight of J_log per step
         self.w_e = dt * self.kappa * ms.k_e  # [s^3/m^2] weight of (v - v_max)^2 per step
-        self.jerk_w = gs.w_jerk / (dt * dt)  # [s^4/m^2] weight of (a_k - a_{k-1})^2
+        self.jerk_w = gs.problem.w_jerk / (dt * dt)  # [s^4/m^2] weight of (a_k - a_{k-1})^2
         self._floor, self._clr, self._eps = ms.tcp_speed_floor, ms.conflict_clearance, ms.eps
         # lateral terms: (other, s_cp own, s_cp other); following terms where p follows: (leader, offset)
         self.lat_terms: list[tuple[int, float, float]] = []
@@ -108,7 +108,7 @@ class PlayerObjective:
         if self.w_log <= 0.0:
             self.log_terms = []
         # exact quadratic part (efficiency + comfort): 1/2 a^T Q a + b0^T a + const
-        self.Q = _quadratic_part(self.n, dt, self.w_e, gs.w_accel, self.jerk_w)
+        self.Q = _quadratic_part(self.n, dt, self.w_e, gs.problem.w_accel, self.jerk_w)
         self.b0 = (2.0 * self.w_e * (self.v0 - self.v_max)) * hm.dtLv_colsum
         self._lat: list = []  # per lateral term: (s_cp own, TCP of the other (N,), other not passed (N,))
         self._log: list = []  # per following term: (leader s in own frame minus length (N,), leader v (N,))
@@ -164,7 +164,7 @@ class PlayerObjective:
         vk, sk = self.v0, self.s0
         for k in range(self.n):
             hi = (bound[k] - sk - vk * dt) / (0.5 * dt * dt)
-            lo = max(gs.a_min, -vk / dt)
+            lo = max(gs.problem.a_min, -vk / dt)
             out[k] = max(min(out[k], hi), lo)
             sk += vk * dt + 0.5 * out[k] * dt * dt
             vk = max(vk + out[k] * dt, 0.0)
@@ -190,10 +190,10 @@ class PlayerObjective:
         run = running_cost(self.kappa, j_log, j_lat, self.j_lk, efficiency_cost(v, self.v_max, ms.k_e), ms)
         if a.ndim == 1:
             da = a[1:] - a[:-1]
-            return self.dt * (float(run.sum()) + self.gs.w_accel * float(a @ a)
+            return self.dt * (float(run.sum()) + self.gs.problem.w_accel * float(a @ a)
                               + self.jerk_w * float(da @ da))
         da = a[:, 1:] - a[:, :-1]
-        return self.dt * (run.sum(axis=-1) + self.gs.w_accel * (a * a).sum(axis=-1)
+        return self.dt * (run.sum(axis=-1) + self.gs.problem.w_accel * (a * a).sum(axis=-1)
                           + self.jerk_w * (da * da).sum(axis=-1))
 
     # ------------------------------------------------------------------ convex model
@@ -257,7 +257,7 @@ class PlayerObjective:
                     alpha = inv * hm.k_half + c
                     grad += hm.m_dt2 * _rcumsum(inv * w1) - _rcumsum(alpha * w1)
         for s_lead, v_lead in self._log:
-            gap = np.maximum(s_lead - s, self.gs.gap_floor)
+            gap = np.maximum(s_lead - s, self.gs.solver.gap_floor)
             dv = v - v_lead
             r = dv / gap
             closing = r > 0
@@ -308,7 +308,7 @@ class PlayerObjective:
         """Jacobian R = dr/da and the Gauss-Newton weights (slope, convex curvature) of
         sum_k w_log h(r_k), h(r) = r^2 / (1 + eps r^2) (Eq. 15), r = 1 / TTC_log; None when the
         player closes in on its leader at no step."""
-        gap = np.maximum(s_lead - s, self.gs.gap_floor)
+        gap = np.maximum(s_lead - s, self.gs.solver.gap_floor)
         dv = v - v_lead
         r = dv / gap
         closing = r > 0

@@ -218,23 +218,23 @@ def speed_cap(player: Player, v_max_default: float) -> float:
 
 
 def safe_plan(player: Player, settings: GameSettings) -> Plan:
-    """Comfortable braking to a stop at ``settings.comfort_brake``, respecting v >= 0.
+    """Comfortable braking to a stop at ``settings.problem.comfort_brake``, respecting v >= 0.
 
     The fallback of every solver failure. Non-finite inputs are replaced (s0 -> 0 m, v0 -> 0 m/s)
     so the plan itself is always finite.
     """
-    n, dt = settings.steps, settings.dt
+    n, dt = settings.problem.steps, settings.problem.dt
     s0 = player.s0 if math.isfinite(player.s0) else 0.0
     v0 = player.v0 if math.isfinite(player.v0) else 0.0
     v0 = max(v0, 0.0)
-    v = np.maximum(v0 - settings.comfort_brake * dt * np.arange(n + 1), 0.0)
+    v = np.maximum(v0 - settings.problem.comfort_brake * dt * np.arange(n + 1), 0.0)
     a = np.diff(v) / dt
     return Plan.from_accelerations(s0, v0, a, dt)
 
 
 def hold_plan(player: Player, settings: GameSettings) -> Plan:
     """Zero acceleration over the horizon (constant speed)."""
-    return Plan.from_accelerations(player.s0, player.v0, np.zeros(settings.steps), settings.dt)
+    return Plan.from_accelerations(player.s0, player.v0, np.zeros(settings.problem.steps), settings.problem.dt)
 
 
 def project_accelerations(a, v0: float, v_cap: float, settings: GameSettings) -> np.ndarray:
@@ -245,23 +245,23 @@ def project_accelerations(a, v0: float, v_cap: float, settings: GameSettings) ->
     a = np.array(a, dtype=float)
     if not np.isfinite(a).all():
         a[~np.isfinite(a)] = 0.0
-    dt = settings.dt
-    np.maximum(a, settings.a_min, out=a)
-    np.minimum(a, settings.a_max, out=a)
+    dt = settings.problem.dt
+    np.maximum(a, settings.problem.a_min, out=a)
+    np.minimum(a, settings.problem.a_max, out=a)
     v = v0 + dt * a.cumsum()
     if v.min() >= 0.0 and v.max() <= v_cap:
         return a
     v = np.clip(v, 0.0, max(v_cap, 0.0))
     a = np.diff(v, prepend=v0) / dt
-    np.maximum(a, settings.a_min, out=a)
-    np.minimum(a, settings.a_max, out=a)
+    np.maximum(a, settings.problem.a_min, out=a)
+    np.minimum(a, settings.problem.a_max, out=a)
     v = v0 + dt * a.cumsum()
     if v.min() >= -1e-12 and v.max() <= v_cap + 1e-12:
         return a
     vk = v0
     for k in range(len(a)):
-        lo = max(settings.a_min, -vk / dt)
-        hi = min(settings.a_max, (v_cap - vk) / dt)
+        lo = max(settings.problem.a_min, -vk / dt)
+        hi = min(settings.problem.a_max, (v_cap - vk) / dt)
         a[k] = min(max(a[k], lo), max(lo, hi))
         vk = max(vk + a[k] * dt, 0.0)
     return a

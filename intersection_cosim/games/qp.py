@@ -72,8 +72,8 @@ class QPWorkspace:
         P0 = sp.csc_matrix((H0[self._rows, self._cols], self._rows, pattern.indptr), shape=(n, n))
         self.solver = osqp.OSQP()
         self.solver.setup(P0, np.zeros(n), A, -np.ones(2 * n), np.ones(2 * n), verbose=False,
-                          eps_abs=gs.osqp_eps_abs, eps_rel=gs.osqp_eps_rel,
-                          max_iter=gs.osqp_max_iter, check_termination=gs.osqp_check_termination,
+                          eps_abs=gs.solver.osqp_eps_abs, eps_rel=gs.solver.osqp_eps_rel,
+                          max_iter=gs.solver.osqp_max_iter, check_termination=gs.solver.osqp_check_termination,
                           polishing=False, warm_starting=True, scaling=0)
         # the extension object; the public wrapper adds ~50 us of Python per call (constants
         # looked up by import, an info dict rebuilt), too much for a 1 ms budget
@@ -143,7 +143,7 @@ class QPWorkspace:
         if Hc is None:
             self.H = H
             # H is positive semidefinite: its largest entry in magnitude is on the diagonal
-            self._reuse_bound = self.gs.hessian_reuse_tol * float(H.diagonal().max())
+            self._reuse_bound = self.gs.solver.hessian_reuse_tol * float(H.diagonal().max())
         if status_val != _SOLVED or not math.isfinite(float(x.sum())):
             self.H = None  # do not reuse data of a failed solve
             status = "non-finite solution" if status_val == _SOLVED else str(info.status)
@@ -169,8 +169,8 @@ def workspace(n: int, gs: GameSettings, slot: object = 0) -> QPWorkspace:
     pool = getattr(_local, "pool", None)
     if pool is None:
         pool = _local.pool = {}
-    key = (n, slot, gs.osqp_eps_abs, gs.osqp_eps_rel, gs.osqp_max_iter, gs.osqp_check_termination,
-           gs.hessian_reuse_tol)
+    key = (n, slot, gs.solver.osqp_eps_abs, gs.solver.osqp_eps_rel, gs.solver.osqp_max_iter, gs.solver.osqp_check_termination,
+           gs.solver.hessian_reuse_tol)
     ws = pool.get(key)
     if ws is None:
         ws = pool[key] = QPWorkspace(n, gs)

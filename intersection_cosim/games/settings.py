@@ -1,39 +1,59 @@
-"""Solver parameters of the game layer (paper Section IV), one typed object with documented defaults.
+"""Settings of the game layer (paper Section IV): the game problem and the solver, each one
+typed frozen object with documented defaults.
 
-Like :class:`~intersection_cosim.models.settings.ModelSettings`, every field can be set from a
-scenario-file table (``[games]``) through :func:`intersection_cosim.settings.from_table`, which calls
-:meth:`GameSettings.check`. The cost weights of the paper (Eqs. 13-24) stay in ModelSettings; this
-object only holds what the paper does not specify: the horizon, the input limits, the comfort
-regulariser, the fallback and the numerical knobs of the SQP / OSQP solvers.
+The cost weights of the paper (Eqs. 13-24) stay in
+:class:`~intersection_cosim.models.settings.ModelSettings`. :class:`ProblemSettings` holds what
+defines the game the paper leaves open (the horizon, the input limits, the comfort regulariser,
+the safe fallback plan) and is set from a scenario's ``[controller.game]`` table;
+:class:`SolverSettings` holds the numerical knobs of the SQP / OSQP solvers
+(``[controller.solver]``). :class:`GameSettings` is the pair, what every solver of this layer takes.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from intersection_cosim.settings import non_negative, positive
 
 SCHEMES = ("gauss-seidel", "jacobi")
-YIELD_ORDERS = ("tcp", "plan")
 
 
 @dataclass(frozen=True)
-class GameSettings:
-    # --- horizon and input limits ---
+class ProblemSettings:
+    """The open-loop game every player solves (``[controller.game]``)."""
+
     horizon: float = 3.0  # [s] planning horizon T of the open-loop game (Eq. 10: t in [0, T])
     dt: float = 0.1  # [s] step of the acceleration sequence; N = horizon / dt decisions per player
     a_min: float = -4.0  # [m/s^2] hardest braking a player may plan (U^i of Eq. 11)
     a_max: float = 2.5  # [m/s^2] strongest acceleration a player may plan (U^i of Eq. 11)
     comfort_brake: float = 2.0  # [m/s^2] deceleration of the safe fallback plan (brake to a stop)
-
-    # --- comfort regulariser, added to every player's cost (not in the paper) ---
-    # Makes each best response strictly convex in the accelerations even when kappa = 0 and no
-    # interaction is active (then the paper's running cost is constant and every plan is optimal).
-    # Cost per step dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), same units as J_e.
-    w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration (calibrated in the closed
-    #                       loop: at 0.01 every vehicle reaches v_max within 2 s whatever its kappa,
-    #                       so kappa had no effect on travel time)
+    # Comfort regulariser, added to every player's cost (not in the paper): each best response is
+    # strictly convex in the accelerations even when kappa = 0 and no interaction is active (then
+    # the paper's running cost is constant and every plan is optimal). Cost per step
+    # dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), in the units of J_e.
+    w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
+
+    @property
+    def steps(self) -> int:
+        """[-] N = horizon / dt, decisions per player."""
+        return int(round(self.horizon / self.dt))
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = positive(self, "horizon", "dt", "a_max", "comfort_brake")
+        problems += non_negative(self, "w_accel", "w_jerk")
+        if not self.a_min < 0:
+            problems.append(("a_min", "must be < 0"))
+        if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:
+            problems.append(("horizon", "must be a whole number of steps dt"))
+        if not self.comfort_brake <= -self.a_min:
+            problems.append(("comfort_brake", "must be <= -a_min"))
+        return problems
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """Equilibrium iterations, best responses and OSQP (``[controller.solver]``)."""
 
     # --- equilibrium iteration (Section IV-C, IV-D) ---
     scheme: str = "gauss-seidel"  # "gauss-seidel" or "jacobi" best-response iteration
@@ -49,13 +69,11 @@ class GameSettings:
     cold_start_orders: bool = False  # cold Nash: also start from each passing order (3x the work)
     stackelberg_max_iter: int = 20  # [-] cap on leader iterations
     stackelberg_tol: float = 1e-2  # [m/s^2] converged when the leader's step is smaller than this
-    stackelberg_gain_rtol: float = 1e-3  # [-] ... or its model gain is below this fraction (as
-    #                                      nash_cost_rtol: a smaller gain is not worth a follower solve)
+    stackelberg_gain_rtol: float = 1e-3  # [-] ... or its model gain is below this fraction
     stackelberg_attempts: int = 1  # [-] leader QPs per iteration: after a rejected step (all its
     #                                halves tried) the trust region shrinks and the QP is re-solved
     active_set_max_updates: int = 4  # [-] follower active-set updates per leader step
     active_tol: float = 1e-3  # [m/s^2] a row within this of its bound starts in the active set
-    #                           (OSQP at eps 1e-4 is accurate to ~1e-3; the KKT refinement fixes it)
 
     # --- best response: sequential QP with trust region and line search ---
     br_max_sqp: int = 20  # [-] SQP iterations of a stand-alone best response
@@ -78,77 +96,24 @@ class GameSettings:
     hessian_reuse_tol: float = 0.05  # [-] keep OSQP's installed P (no refactorisation) if the new
     #                                  Hessian differs from it by less than this (relative)
 
-    # --- closed-loop controller ---
-    free_resolve_steps: int = 5  # [-] most control steps between solves of a vehicle in no game
-    #                              whose inputs did not change (control/game.py, _reuse_solo_plan)
-    solo_max_iter: int = 1  # [-] SQP steps of a solo vehicle's best response per control step
-    #                         (real-time iteration: an unconverged plan is applied and the SQP goes
-    #                         on from it, shifted, at the next step; games are not capped this way).
-    #                         1, as in the real-time iteration scheme of MPC (one SQP step per
-    #                         sample): a solo problem changes little between periods, and the
-    #                         vehicle a game is about to take over needs no converged solo plan.
-    #                         At 4 the solo solves of the waiting vehicles ate the trigger's
-    #                         saving (Case 1 A, Nash, medians of three runs in one process:
-    #                         1.33 ms a step with the ETM against 1.48 without; at 1: 0.74
-    #                         against 1.44 ms); the paper's orderings hold at both
-    lane_choice_range: float = 30.0  # [m] a vehicle chooses among its exit lanes only within this
-    #                                  distance of its stop line (v_max * horizon: what the plan
-    #                                  reaches); farther out it keeps its current exit lane
-    lane_choice_period: int = 5  # [-] control steps between a vehicle's exit-lane decisions (it
-    #                              holds its choice in between; 1 = decide every step)
-    anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
-    #                              and solo solves that would not finish before the rest of the
-    #                              budget are deferred (their vehicles keep their last plan, shifted)
-    solo_leader_tol: float = 0.1  # [m] and [m/s]: a solo vehicle solves again when its leader's
-    #                               predicted positions (speeds) moved more than this since its solve
-
-    # --- safety filter of the closed-loop controller (not in the paper; control/safety.py) ---
-    safety_filter: bool = True  # [-] check every applied acceleration against collision
-    safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
-    safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
-    yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
-    #                          junction: "tcp" = smaller time to the crossing at the current speed
-    #                          (the paper's leader rule, Section IV-D; first come, first served;
-    #                          a pair that played its game keeps the game's order, by its plans),
-    #                          "plan" = earlier arrival by this step's plans for every pair (the
-    #                          plan that accelerates harder claims the crossing)
-    clear_accel: float = 1.0  # [m/s^2] box rule: a vehicle standing (below clear_speed) inside a
-    #                           crossing that another vehicle waits for drives out at least this hard
-    clear_speed: float = 1.0  # [m/s]
-
-    @property
-    def steps(self) -> int:
-        """[-] N = horizon / dt, decisions per player."""
-        return int(round(self.horizon / self.dt))
-
     def check(self) -> list[tuple[str, str]]:
-        problems = positive(self, "free_resolve_steps", "solo_max_iter", "lane_choice_period",
-                            "horizon", "dt", "a_max",
-                            "comfort_brake", "nash_tol", "nash_max_iter", "sqp_steps_per_iteration",
-                            "stackelberg_tol", "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp",
-                            "br_step_tol", "trust_region", "trust_region_min", "trust_region_max",
-                            "gap_floor", "osqp_eps_abs", "osqp_max_iter",
-                            "osqp_check_termination")
-        problems += non_negative(self, "safety_time_gap", "safety_margin", "solo_leader_tol",
-                                  "clear_accel", "clear_speed",
-                                  "lane_choice_range", "anytime_reserve")
-        problems += non_negative(self, "w_accel", "w_jerk", "active_set_max_updates",
-                                 "active_tol", "line_search_steps", "armijo",
-                                 "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol",
-                                 "hessian_refresh", "nash_cost_rtol", "nash_cost_guard",
-                                 "stackelberg_gain_rtol")
-        if not self.anytime_reserve < 1:
-            problems.append(("anytime_reserve", "must be < 1"))
-        if not self.a_min < 0:
-            problems.append(("a_min", "must be < 0"))
-        if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:
-            problems.append(("horizon", "must be a whole number of steps dt"))
-        if self.yield_order not in YIELD_ORDERS:
-            problems.append(("yield_order", f"must be one of {', '.join(YIELD_ORDERS)}"))
+        problems = positive(self, "nash_tol", "nash_max_iter", "sqp_steps_per_iteration", "stackelberg_tol",
+                            "stackelberg_max_iter", "stackelberg_attempts", "br_max_sqp", "br_step_tol",
+                            "trust_region", "trust_region_min", "trust_region_max", "gap_floor", "osqp_eps_abs",
+                            "osqp_max_iter", "osqp_check_termination")
+        problems += non_negative(self, "active_set_max_updates", "active_tol", "line_search_steps", "armijo",
+                                 "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol", "hessian_refresh",
+                                 "nash_cost_rtol", "nash_cost_guard", "stackelberg_gain_rtol")
         if self.scheme not in SCHEMES:
             problems.append(("scheme", f"must be one of {', '.join(SCHEMES)}"))
         if not self.trust_region_min <= self.trust_region <= self.trust_region_max:
             problems.append(("trust_region", "must lie in [trust_region_min, trust_region_max]"))
-        if not self.comfort_brake <= -self.a_min:
-            problems.append(("comfort_brake", "must be <= -a_min"))
         return problems
+
+
+@dataclass(frozen=True)
+class GameSettings:
+    """The game problem and its solver: what the solvers of this layer take."""
+
+    problem: ProblemSettings = field(default_factory=ProblemSettings)
+    solver: SolverSettings = field(default_factory=SolverSettings)

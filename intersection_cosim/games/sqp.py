@@ -88,11 +88,11 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
         raise SolverFailure("non-finite cost at the start")
     c_start = c
     exact = not obj.coupled
-    delta = gs.trust_region_max if exact else (trust_region or gs.trust_region)
+    delta = gs.solver.trust_region_max if exact else (trust_region or gs.solver.trust_region)
     l, u = np.empty(2 * n), np.empty(2 * n)
     l[n:], u[n:] = ws.speed_rows(obj.v0, obj.v_cap, dt)
     lo, hi = l[:n], u[:n]
-    a_min, a_max = gs.a_min, gs.a_max
+    a_min, a_max = gs.problem.a_min, gs.problem.a_max
     sum_lo, sum_hi = -obj.v0 / dt, (obj.v_cap - obj.v0) / dt  # bounds of sum(a) for 0 <= v <= v_cap
     qp = 0
     it = 0
@@ -123,7 +123,7 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
             d = x_qp - a
             step = float(abs(d).max())
             pred = -float(g @ d + 0.5 * (d @ sol.H @ d))
-            if step < gs.br_step_tol or pred <= gs.br_rel_decrease_tol * max(abs(c), 1e-9):
+            if step < gs.solver.br_step_tol or pred <= gs.solver.br_rel_decrease_tol * max(abs(c), 1e-9):
                 # stationary for the model: keep the tiny step only if it does not raise the cost
                 if step > 0.0:
                     c_new = float(obj.cost(x_qp))
@@ -135,12 +135,12 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
             if not math.isfinite(c_new):
                 raise SolverFailure("non-finite cost")
             alpha = 1.0
-            if c_new > c - gs.armijo * pred:
+            if c_new > c - gs.solver.armijo * pred:
                 alpha = 0.0
-                if gs.line_search_steps > 0 and not exact:
-                    alphas = 0.5 ** np.arange(1, gs.line_search_steps + 1)
+                if gs.solver.line_search_steps > 0 and not exact:
+                    alphas = 0.5 ** np.arange(1, gs.solver.line_search_steps + 1)
                     trial = obj.cost(a[None, :] + alphas[:, None] * d[None, :])
-                    ok = np.nonzero(trial <= c - gs.armijo * alphas * pred)[0]
+                    ok = np.nonzero(trial <= c - gs.solver.armijo * alphas * pred)[0]
                     if ok.size:
                         alpha, c_new = float(alphas[ok[0]]), float(trial[ok[0]])
             if alpha > 0.0:
@@ -148,19 +148,19 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
                 a = x_qp if alpha == 1.0 else a + alpha * d
                 c = c_new
                 if alpha < 1.0:
-                    delta = max(alpha * step, gs.trust_region_min)
+                    delta = max(alpha * step, gs.solver.trust_region_min)
                 elif ratio > 0.75 and step > 0.9 * delta:
-                    delta = min(2.0 * delta, gs.trust_region_max)
+                    delta = min(2.0 * delta, gs.solver.trust_region_max)
                 elif ratio < 0.25:
-                    delta = max(0.5 * delta, gs.trust_region_min)
-                if exact or alpha * step < gs.br_step_tol:
+                    delta = max(0.5 * delta, gs.solver.trust_region_min)
+                if exact or alpha * step < gs.solver.br_step_tol:
                     converged = True
                 break
             if exact:  # the exact model's optimum does not lower the cost: a is optimal
                 converged = True
                 break
             delta = 0.25 * min(delta, step)
-            if delta < gs.trust_region_min:
+            if delta < gs.solver.trust_region_min:
                 converged = True  # no decrease in any region: a local minimum to tolerance
                 break
         if converged:
@@ -223,8 +223,8 @@ def best_response(problem: Problem, player_index: int,
         obj = PlayerObjective(problem, p, gs, ms)
         obj.set_others(plans)
         a0 = initial_accelerations(obj, warm, gs)
-        out = sqp_best_response(obj, a0, workspace(obj.n, gs, ("br", p)), gs, gs.br_max_sqp)
-        plan = Plan.from_accelerations(obj.s0, obj.v0, out.a, gs.dt)
+        out = sqp_best_response(obj, a0, workspace(obj.n, gs, ("br", p)), gs, gs.solver.br_max_sqp)
+        plan = Plan.from_accelerations(obj.s0, obj.v0, out.a, gs.problem.dt)
         if not (math.isfinite(out.cost) and np.all(np.isfinite(plan.positions))):
             raise SolverFailure("non-finite plan")
         return BestResponseResult(plan, out.cost, "converged" if out.converged else "iteration cap",

@@ -69,11 +69,11 @@ def stackelberg_leader(problem: Problem, model_settings: ModelSettings | None = 
 
 def _active_set(x: np.ndarray, v0: float, v_cap: float, gs: GameSettings) -> np.ndarray:
     """Signs of the active physical rows at x: +1 upper, -1 lower, 0 inactive; rows [I; Lv]."""
-    n, dt = len(x), gs.dt
-    tol = gs.active_tol
+    n, dt = len(x), gs.problem.dt
+    tol = gs.solver.active_tol
     rows = np.concatenate((x, np.cumsum(x)))
-    lo = np.concatenate((np.full(n, gs.a_min), np.full(n, -v0 / dt)))
-    hi = np.concatenate((np.full(n, gs.a_max), np.full(n, (v_cap - v0) / dt)))
+    lo = np.concatenate((np.full(n, gs.problem.a_min), np.full(n, -v0 / dt)))
+    hi = np.concatenate((np.full(n, gs.problem.a_max), np.full(n, (v_cap - v0) / dt)))
     sign = np.zeros(2 * n, dtype=int)
     sign[rows >= hi - tol] = 1
     sign[rows <= lo + tol] = -1
@@ -106,11 +106,11 @@ class _Follower:
 
     def __init__(self, n: int, v0: float, v_cap: float, gs: GameSettings):
         self.n, self.gs = n, gs
-        dt = gs.dt
+        dt = gs.problem.dt
         self.A = _rows(n)
         self.lo, self.hi = np.empty(2 * n), np.empty(2 * n)
-        self.lo[:n], self.lo[n:] = gs.a_min, -v0 / dt
-        self.hi[:n], self.hi[n:] = gs.a_max, (v_cap - v0) / dt
+        self.lo[:n], self.lo[n:] = gs.problem.a_min, -v0 / dt
+        self.hi[:n], self.hi[n:] = gs.problem.a_max, (v_cap - v0) / dt
 
     def set_model(self, aF, aL, gF, H_FF, H_FL):
         n = self.n
@@ -241,7 +241,7 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
     objL, objF = game.objs[L], game.objs[F]
     wsL = workspace(game.N, gs, ("stackelberg-leader", L))
     wsF = game.ws[F]
-    n, dt = game.N, gs.dt
+    n, dt = game.N, gs.problem.dt
 
     def follower_answer(plans_now, steps, duals=None):
         """The follower's best response (``steps`` SQP steps) and whether it has settled."""
@@ -250,7 +250,7 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
         game.qp_count += out.qp_count
         gain = (out.cost0 - out.cost) / max(abs(out.cost0), 1e-9)
         moved = float(abs(out.a - plans_now[F].accelerations).max())
-        settled = out.converged or (gain < gs.nash_cost_rtol and moved < gs.nash_cost_guard)
+        settled = out.converged or (gain < gs.solver.nash_cost_rtol and moved < gs.solver.nash_cost_guard)
         return out, settled
 
     def leader_cost(y, x):
@@ -265,21 +265,21 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
     follower_settled = not warm
     f_cost = f_cost0  # the follower's true cost of the current plans, when known
     if warm:
-        out, follower_settled = follower_answer(plans, gs.sqp_steps_per_iteration, plans[F].duals)
+        out, follower_settled = follower_answer(plans, gs.solver.sqp_steps_per_iteration, plans[F].duals)
         plans[F] = objF.plan(out.a, out.duals)
         x_last = out.x_qp if out.x_qp is not None else out.a
         f_cost = out.cost
     objL.set_others(plans)
     cL = float(objL.cost(plans[L].accelerations))
     follower = _Follower(n, objF.v0, objF.v_cap, gs)
-    delta = gs.trust_region
+    delta = gs.solver.trust_region
     l, u = np.empty(2 * n), np.empty(2 * n)
     l[n:], u[n:] = wsL.speed_rows(objL.v0, objL.v_cap, dt)
     y_duals = plans[L].duals
     residuals: list[float] = []
     status = "iteration cap"
     per_iteration = 0.0
-    for _ in range(gs.stackelberg_max_iter):
+    for _ in range(gs.solver.stackelberg_max_iter):
         start = time.perf_counter()
         if deadline is not None and start + per_iteration > deadline:
             status = "deadline"
@@ -293,8 +293,8 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
         follower.set_model(aF, aL, gF, H_FF, H_FL)
         sign = _active_set(x_last, objF.v0, objF.v_cap, gs)
         accepted = None
-        for _attempt in range(gs.stackelberg_attempts):
-            for _update in range(gs.active_set_max_updates + 1):
+        for _attempt in range(gs.solver.stackelberg_attempts):
+            for _update in range(gs.solver.active_set_max_updates + 1):
                 x0, sign_used, K, lam0, Lam = follower.solve_active(sign, aL, need_K=True)
                 d0 = x0 - aF
                 # leader's reduced model in y: dy -> (dy, d0 + K dy)
@@ -302,14 +302,14 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
                 Hr = H_LL + H_LF @ K + K.T @ H_LF.T + KH @ K
                 Hr = 0.5 * (Hr + Hr.T)
                 gr = gL + K.T @ gLF + (H_LF + KH) @ d0
-                np.maximum(aL - delta, gs.a_min, out=l[:n])
-                np.minimum(aL + delta, gs.a_max, out=u[:n])
+                np.maximum(aL - delta, gs.problem.a_min, out=l[:n])
+                np.minimum(aL + delta, gs.problem.a_max, out=u[:n])
                 sol = wsL.solve(Hr, gr, aL, l, u, y0=y_duals)
                 y_duals = None
                 game.qp_count += 1
                 if not sol.ok:
                     raise SolverFailure(f"OSQP (leader): {sol.status}")
-                y = np.minimum(np.maximum(sol.x, gs.a_min), gs.a_max)
+                y = np.minimum(np.maximum(sol.x, gs.problem.a_min), gs.problem.a_max)
                 # the follower's QP at the new leader plan: does the active set still hold?
                 dy = y - aL
                 x_y = x0 + K @ dy
@@ -319,13 +319,13 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
             step = float(abs(y - aL).max())
             dy = y - aL
             pred = -float(gr @ dy + 0.5 * (dy @ sol.H @ dy))  # model decrease of the leader
-            if step < gs.stackelberg_tol or pred < gs.stackelberg_gain_rtol * abs(cL):
+            if step < gs.solver.stackelberg_tol or pred < gs.solver.stackelberg_gain_rtol * abs(cL):
                 break  # the leader's best step is below tolerance or gains too little: settled
             # cheap pre-check along the step with the follower's predicted answer (its QP by
             # KKT): full step, then halves; the follower's true answer only for a promising one
-            for alpha in (1.0, 0.5, 0.25)[:1 + gs.line_search_steps]:
+            for alpha in (1.0, 0.5, 0.25)[:1 + gs.solver.line_search_steps]:
                 y_a = y if alpha == 1.0 else aL + alpha * (y - aL)
-                x_a = x_y if alpha == 1.0 else np.clip(x0 + alpha * (x_y - x0), gs.a_min, gs.a_max)
+                x_a = x_y if alpha == 1.0 else np.clip(x0 + alpha * (x_y - x0), gs.problem.a_min, gs.problem.a_max)
                 if leader_cost(y_a, x_a) < cL:
                     break
             else:
@@ -333,7 +333,7 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
             if alpha > 0.0:
                 trial = list(plans)
                 trial[L] = objL.plan(y_a, sol.y)
-                out, settled = follower_answer(trial, gs.sqp_steps_per_iteration)
+                out, settled = follower_answer(trial, gs.solver.sqp_steps_per_iteration)
                 trial[F] = objF.plan(out.a, out.duals)
                 objL.set_others(trial)
                 c_new = float(objL.cost(y_a))
@@ -343,7 +343,7 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
                     accepted = (trial, c_new, settled, out, alpha * step)
                     break
             delta = 0.25 * min(delta, step)
-            if delta < gs.trust_region_min:
+            if delta < gs.solver.trust_region_min:
                 break
         if accepted is None:
             residuals.append(0.0)
@@ -356,17 +356,17 @@ def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, 
         plans, cL = trial, c_new
         x_last = out.x_qp if out.x_qp is not None else out.a
         if step > 0.9 * delta:
-            delta = min(2.0 * delta, gs.trust_region_max)
+            delta = min(2.0 * delta, gs.solver.trust_region_max)
         residuals.append(res)
         per_iteration = max(per_iteration, time.perf_counter() - start)
-        if res < gs.stackelberg_tol or (res < gs.nash_cost_guard and gain < gs.nash_cost_rtol
+        if res < gs.solver.stackelberg_tol or (res < gs.solver.nash_cost_guard and gain < gs.solver.nash_cost_rtol
                                         and follower_settled):
             status = "converged"
             break
     known = [None, None]  # true costs of the final plans where already evaluated
     known[L], known[F] = cL, f_cost
     if not follower_settled:  # polish the follower to a full best response
-        out, _ = follower_answer(plans, gs.br_max_sqp)
+        out, _ = follower_answer(plans, gs.solver.br_max_sqp)
         plans[F] = objF.plan(out.a, out.duals)
         known[L], known[F] = None, out.cost
     return plans, residuals, status, known

@@ -29,6 +29,7 @@ from intersection_cosim.scenario.model import (
 from intersection_cosim.settings import from_table
 
 TOP_LEVEL = ("scenario", "controller", "model", "vehicle", "flow")
+CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed")
 FLOW_KEYS = ("id", "approach", "movement", "rate", "kappa", "begin", "end", "lane", "speed", "distance")
@@ -233,15 +234,16 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
             raise InputError(src, key, data[key], "must be a table")
     scen = from_table(ScenarioSettings, data.get("scenario"), src, "scenario")
     ctrl_table = dict(data.get("controller", {}))
-    solver = ctrl_table.pop("solver", {})
-    if not isinstance(solver, dict):
-        raise InputError(src, "controller.solver", solver, "must be a table")
+    tables = {name: ctrl_table.pop(name) for name in CONTROLLER_TABLES if name in ctrl_table}
+    for name, table in tables.items():
+        if not isinstance(table, dict):
+            raise InputError(src, f"controller.{name}", table, "must be a table")
     ctrl = from_table(ControllerSettings, ctrl_table, src, "controller")
     from intersection_cosim.control import registry
 
     if ctrl.kind not in registry.names():
         raise InputError(src, "controller.kind", ctrl.kind, f"must be one of {', '.join(registry.names())}")
-    solver_settings = registry.validate_solver_table(ctrl.kind, solver, src)
+    settings = registry.validate_tables(ctrl.kind, tables, src)
     model = from_table(ModelSettings, data.get("model"), src, "model")
 
     paths = load_paths(cached_net(IntersectionSpec(junction_type=scen.junction_type)))
@@ -266,8 +268,8 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
         fids.add(f.id)
     if not vehicles and not flows:
         raise InputError(src, "vehicle", [], "a scenario needs at least one [[vehicle]] or [[flow]]")
-    return Scenario(source=src, scenario=scen, controller=ctrl, model=model, solver=solver_settings,
-                    solver_table=dict(solver), vehicles=tuple(vehicles), flows=tuple(flows))
+    return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
+                    controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows))
 
 
 def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | None = None,
@@ -282,7 +284,8 @@ def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | 
         if controller not in registry.names():
             raise InputError("--controller", "controller", controller, f"must be one of {', '.join(registry.names())}")
         ctrl = dataclasses.replace(ctrl, kind=controller)
-        scn = dataclasses.replace(scn, solver=registry.validate_solver_table(controller, scn.solver_table, scn.source))
+        scn = dataclasses.replace(scn, controller_settings=registry.validate_tables(controller, scn.controller_tables,
+                                                                                     scn.source))
     fields = {k: v for k, v in controller_fields.items() if v is not None}
     if fields:
         ctrl = dataclasses.replace(ctrl, **fields)

@@ -101,7 +101,7 @@ class Scenario:
     scenario: ScenarioSettings
     controller: ControllerSettings
     model: ModelSettings
-    solver: object = None  # the controller's validated [controller.solver] settings (None: takes none)
-    solver_table: dict = field(default_factory=dict)  # the raw table, re-validated on --controller
+    controller_settings: object = None  # the controller's validated [controller.*] settings (None: takes none)
+    controller_tables: dict = field(default_factory=dict)  # the raw sub-tables, re-validated on --controller
     vehicles: tuple[VehicleSpec, ...] = ()
     flows: tuple[FlowSpec, ...] = ()

@@ -12,7 +12,7 @@ def controller(paths, net_file):
     """A Nash game controller set up on the default net (ETM on, 0.1 s period)."""
     c = GameController("nash")
     c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
-                           solver=None, etm=True))
+                           settings=None, etm=True))
     return c
 
 

@@ -68,14 +68,14 @@ def test_registry_has_the_baselines_and_fcfs():
     for name, jtype in BASELINES.items():
         ctrl = registry.get(name).factory(scn)
         assert ctrl.junction_type == jtype and not ctrl.controls_vehicles
-    assert registry.get("fcfs").solver_settings is FcfsSettings
+    assert registry.get("fcfs").settings is FcfsSettings and registry.get("fcfs").table == "solver"
 
 
 def test_fcfs_settings_from_the_solver_table():
     data = tomllib.loads((SCENARIOS / "case1_A.toml").read_text())
     data["controller"] = {"kind": "fcfs", "solver": {"buffer": 1.0, "comfort_accel": 1.5}}
     scn = scenario_from_dict(data)
-    assert scn.solver == FcfsSettings(buffer=1.0, comfort_accel=1.5)
+    assert scn.controller_settings == FcfsSettings(buffer=1.0, comfort_accel=1.5)
     with pytest.raises(InputError):
         from_table(FcfsSettings, {"buffer": -0.1}, "<t>", "controller.solver")
     with pytest.raises(InputError):
@@ -119,7 +119,7 @@ def _world(paths, t, vehicles):
 def test_fcfs_grants_do_not_overlap_and_the_later_vehicle_waits(net_file, paths):
     ctrl = FcfsController()
     ctrl.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(),
-                              control_period=0.1, solver=None, etm=True))
+                              control_period=0.1, settings=None, etm=True))
     # northbound and eastbound straight through at 10 m/s, placed so that both would reach their
     # crossing point at about the same time (B 0.5 m further: A comes first); C follows A
     a, b = "south_middle_straight_middle", "west_middle_straight_middle"
@@ -150,7 +150,7 @@ def test_fcfs_grants_do_not_overlap_and_the_later_vehicle_waits(net_file, paths)
 def test_fcfs_releases_vehicles_that_left(net_file, paths):
     ctrl = FcfsController()
     ctrl.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(),
-                              control_period=0.1, solver=None, etm=True))
+                              control_period=0.1, settings=None, etm=True))
     pid = "south_middle_straight_middle"
     ctrl.decide(_world(paths, 0.0, [("A", pid, 5.0, 8.0)]), float("inf"))
     world = _world(paths, 5.0, [("A", pid, -40.0, 10.0)])

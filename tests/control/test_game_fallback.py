@@ -22,7 +22,7 @@ def _world(paths, t, s_a, s_b, v=8.0):
 
 def test_fallback_without_plans_brakes_comfortably(controller, paths):
     d = controller.fallback(_world(paths, 0.0, 120.0, 100.0))
-    assert d.fallback and d.accel["V1"] == pytest.approx(-controller.gs.comfort_brake)
+    assert d.fallback and d.accel["V1"] == pytest.approx(-controller.settings.game.comfort_brake)
 
 
 def test_fallback_discards_the_overrun_steps_plans_and_filters_a_collision(controller, paths):
@@ -57,5 +57,5 @@ def test_fallback_brakes_one_of_two_plans_that_would_collide(controller, paths):
     world = _world(paths, 1.0, cp.s_a[i, j] - 16.0, cp.s_b[i, j] - 16.0)
     d = controller.fallback(world)
     assert d.fallback
-    assert max(d.accel.values()) == pytest.approx(-controller.gs.comfort_brake)
-    assert min(d.accel.values()) <= -controller.gs.comfort_brake
+    assert max(d.accel.values()) == pytest.approx(-controller.settings.game.comfort_brake)
+    assert min(d.accel.values()) <= -controller.settings.game.comfort_brake

@@ -13,7 +13,7 @@ from intersection_cosim.control.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.players import leader_trajectory
 from intersection_cosim.control.relations import step_relations
 from intersection_cosim.control.safety import occupancy
-from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.control.settings import GameControllerSettings, PolicySettings, SafetySettings
 from intersection_cosim.models.settings import ModelSettings
 
 LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
@@ -34,12 +34,12 @@ def _world(paths, t, vehicles):
 
 
 def _nash_controller(paths, net_file, model: ModelSettings | None = None,
-                     solver: GameSettings | None = None) -> GameController:
+                     settings: GameControllerSettings | None = None) -> GameController:
     """A Nash controller on the default net (ETM on, 0.1 s period), like the ``controller``
-    fixture but with the given model and solver settings."""
+    fixture but with the given model and controller settings."""
     c = GameController("nash")
     c.setup(ControlContext(paths=paths, net_file=str(net_file), model=model or ModelSettings(),
-                           control_period=0.1, solver=solver, etm=True))
+                           control_period=0.1, settings=settings, etm=True))
     return c
 
 
@@ -59,7 +59,7 @@ def test_a_crossing_is_guarded_until_the_turning_body_has_cleared_it(controller,
     world.role[0] = "passing"
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert d.games == 0
-    margin = controller.gs.safety_margin
+    margin = controller.settings.safety.safety_margin
     assert d.accel["B"] == pytest.approx(-8.0 ** 2 / (2 * (12.0 - margin)), rel=1e-6)  # -2.9 m/s^2
 
 
@@ -144,7 +144,7 @@ def test_a_vehicle_before_the_junction_waits_at_its_stop_line(controller, paths)
     world = _world(paths, 0.0, [("A", first, t.s_a[p, q], 0.0), ("B", second, s_stop - 10.0, 8.0)])
     world.role[0] = "passing"
     d = controller.decide(world, time.perf_counter() + 10.0)
-    margin = controller.gs.safety_margin
+    margin = controller.settings.safety.safety_margin
     assert d.accel["B"] == pytest.approx(-8.0 ** 2 / (2 * (10.0 - margin)), rel=1e-6)  # -3.6 m/s^2
 
 
@@ -243,7 +243,7 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
     not converge in one SQP step; it applies that plan and solves again (from it) at the next
     period, until it has converged: a step that moved its plan less than nash_tol."""
 
-    c = _nash_controller(paths, net_file, solver=GameSettings(solo_max_iter=1))
+    c = _nash_controller(paths, net_file, settings=GameControllerSettings(policy=PolicySettings(solo_max_iter=1)))
     solves = []  # (control step, status, iterations) of the follower's solo solves
     real = solo_module.nash_equilibrium
     step = 0
@@ -252,7 +252,7 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
         result = real(problem, *a, **k)
         if problem.players[0].name == "follow":
             moved = result.residuals[-1] if result.residuals else 0.0
-            solves.append((step, "converged" if result.status == "converged" or moved < c.gs.nash_tol
+            solves.append((step, "converged" if result.status == "converged" or moved < c.settings.solver.nash_tol
                            else result.status, result.iterations))
         return result
 
@@ -284,7 +284,7 @@ def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
     default order ("tcp", the paper's leader rule) B waits at its stop line; with "plan", A does."""
     # the trigger off (gamma_sf huge): no game, only the solo plans and the filter decide
     model = ModelSettings(gamma_sf=1e12)
-    c = _nash_controller(paths, net_file, model, GameSettings(yield_order=order))
+    c = _nash_controller(paths, net_file, model, GameControllerSettings(safety=SafetySettings(yield_order=order)))
     t = c.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
@@ -335,7 +335,7 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(path
     plan_a, plan_b = controller.memory.plans["A"], controller.memory.plans["B"]
     (in_a, out_a), (in_b, out_b) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
     assert 12.0 / 7.0 < 8.0 / 4.0 and in_a < in_b  # TCP order B, A; the game's order A, B
-    assert in_b < out_a + controller.gs.safety_time_gap  # too close: the filter must order them
+    assert in_b < out_a + controller.settings.safety.safety_time_gap  # too close: the filter must order them
     assert d.accel["A"] == pytest.approx(float(plan_a.accelerations[0]))  # A goes as the game says
     assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
 
@@ -352,7 +352,7 @@ def test_a_vehicle_inside_the_junction_keeps_its_queue_priority_against_a_game(p
     assert d.games == 1 and "B" in controller.safety.entered
     plan_a, plan_b = controller.memory.plans["A"], controller.memory.plans["B"]
     (in_a, out_a), (in_b, _) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
-    assert in_a < in_b < out_a + controller.gs.safety_time_gap  # the game's order, too close
+    assert in_a < in_b < out_a + controller.settings.safety.safety_time_gap  # the game's order, too close
     assert d.accel["B"] == pytest.approx(float(plan_b.accelerations[0]))  # B goes: it is inside
     assert d.accel["A"] < float(plan_a.accelerations[0]) - 1.0  # A waits against its game's plan
 
@@ -387,7 +387,7 @@ def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, n
     without being held solves again at once."""
     calls = _count_solo_solves(monkeypatch)
     model = ModelSettings(gamma_sf=1e12)  # no game: the solo plans and the filter decide
-    c = _nash_controller(paths, net_file, model, GameSettings())
+    c = _nash_controller(paths, net_file, model)
     t = c.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
@@ -406,7 +406,7 @@ def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, n
         d = step(0.1 * n, float(a.positions[1]), float(a.speeds[1]), s_b, v_b)
         assert d.accel["B"] < float(c.memory.plans["B"].accelerations[0]), n  # still held
     # reused for free_resolve_steps - 1 periods, then solved again
-    assert calls.count("B") == 1 + 6 // c.gs.free_resolve_steps
+    assert calls.count("B") == 1 + 6 // c.settings.policy.free_resolve_steps
     # A pushed off its plan (not by the filter) solves again at once
     before = calls.count("A")
     a = c.memory.plans["A"]

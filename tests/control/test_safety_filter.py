@@ -7,11 +7,14 @@ from intersection_cosim.control.base import Decisions
 from intersection_cosim.control.relations import step_relations
 from intersection_cosim.control.safety import SafetyFilter
 from intersection_cosim.games.problem import Plan
-from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.control.settings import PolicySettings, SafetySettings
+from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.settings import ModelSettings
 from tests.control.conftest import make_world
 
-GS = GameSettings()
+GS = SafetySettings()
+PROBLEM = ProblemSettings()
+RANGE = PolicySettings().lane_choice_range  # [m]
 MODEL = ModelSettings()
 LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
 STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
@@ -24,7 +27,7 @@ def _deepest_crossing(t):
 
 
 def _relations(world, paths, table):
-    return step_relations(world, set(range(len(world))), paths, table, MODEL, True, {}, GS.lane_choice_range)
+    return step_relations(world, set(range(len(world))), paths, table, MODEL, True, {}, RANGE)
 
 
 def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, conflict_table):
@@ -35,14 +38,14 @@ def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, co
     p, q = t.index[LEFT], t.index[STRAIGHT]
     s_l, s_s = t.zone_in[p, q] - 16.0, t.zone_in[q, p] - 17.0  # [m] L 2.0 s, S 2.125 s from the zone
     world = make_world(paths, 0.0, [("L", LEFT, s_l, 8.0), ("S", STRAIGHT, s_s, 8.0)])
-    hold = np.zeros(GS.steps)
-    plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, GS.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, GS.dt)}
-    f = SafetyFilter(GS, MODEL, t.s_stop, 0.1)
+    hold = np.zeros(PROBLEM.steps)
+    plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
     d = Decisions(accel={"L": 0.0, "S": 0.0})
     held = f.apply(world, _relations(world, paths, t), plans, {}, d)
     assert d.accel["L"] == 0.0
     to_line = float(t.s_stop[q]) - GS.safety_margin - s_s  # [m] 4.25 m: would need -7.5 m/s^2
-    assert -8.0 ** 2 / (2 * to_line) < GS.a_min
+    assert -8.0 ** 2 / (2 * to_line) < PROBLEM.a_min
     to_zone = float(t.zone_in[q, p]) - GS.safety_margin - s_s  # [m] 16 m: it stops before its zone
     assert d.accel["S"] == pytest.approx(-8.0 ** 2 / (2 * to_zone), rel=1e-9)  # -2 m/s^2
     assert held == {"S"} and f.filtered == 1 and f.cleared == 0
@@ -58,7 +61,7 @@ def test_the_entry_queue_and_the_box_rule(paths, conflict_table):
     s_b = 0.5 * (t.zone_in[q, p] + t.zone_out[q, p])  # B in the middle of its zone
     s_a = t.zone_in[p, q] - 3.0  # A 3 m before its zone, inside the junction
     assert s_a > t.s_stop[p]
-    f = SafetyFilter(GS, MODEL, t.s_stop, 0.1)
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
     entering = make_world(paths, 1.0, [("A", a_path, s_a, 2.0), ("B", b_path, s_b, 0.0)])
     entering.role = ["ready", "passing"]
     f.record_entries(entering)
@@ -66,8 +69,8 @@ def test_the_entry_queue_and_the_box_rule(paths, conflict_table):
     world.role = ["passing", "passing"]
     f.record_entries(world)
     assert f.entered == {"B": 1.0, "A": 5.0}
-    plans = {"A": Plan.from_accelerations(s_a, 2.0, np.full(GS.steps, 1.0), GS.dt),
-             "B": Plan.from_accelerations(s_b, 0.0, np.zeros(GS.steps), GS.dt)}
+    plans = {"A": Plan.from_accelerations(s_a, 2.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
+             "B": Plan.from_accelerations(s_b, 0.0, np.zeros(PROBLEM.steps), PROBLEM.dt)}
     d = Decisions(accel={"A": 1.0, "B": 0.0})
     f.apply(world, _relations(world, paths, t), plans, {}, d)
     assert d.accel["A"] < 0.0  # A yields before its zone
@@ -83,13 +86,13 @@ def test_a_follower_is_capped_at_krauss_safe_speed(paths, conflict_table):
     lane = "south_middle_straight_middle"
     s_stop = paths[lane].s_stop
     world = make_world(paths, 0.0, [("lead", lane, s_stop - 30.0, 0.0), ("follow", lane, s_stop - 40.0, 8.0)])
-    f = SafetyFilter(GS, MODEL, conflict_table.s_stop, 0.1)
-    plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(GS.steps), GS.dt)
+    f = SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, 0.1)
+    plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(PROBLEM.steps), PROBLEM.dt)
              for k, v in enumerate(world.ids)}
     d = Decisions(accel={"lead": 0.0, "follow": 0.0})
     held = f.apply(world, _relations(world, paths, conflict_table), plans, {}, d)
-    b, tau = -GS.a_min, 0.1
+    b, tau = -PROBLEM.a_min, 0.1
     gap = 10.0 - MODEL.vehicle_length - GS.safety_margin  # [m]
     v_safe = -b * tau + np.sqrt((b * tau) ** 2 + 2 * b * gap)
-    assert d.accel["follow"] == pytest.approx(max((v_safe - 8.0) / tau, GS.a_min))
+    assert d.accel["follow"] == pytest.approx(max((v_safe - 8.0) / tau, PROBLEM.a_min))
     assert d.accel["lead"] == 0.0 and held == frozenset()  # behind a leader is not held at a crossing

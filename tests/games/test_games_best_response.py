@@ -11,6 +11,7 @@ import pytest
 from intersection_cosim.games import (GameSettings, Interaction, Plan, Player, Problem,
                                       best_response, nash_equilibrium, safe_plan, shift_plan,
                                       stackelberg_equilibrium)
+from intersection_cosim.games.settings import ProblemSettings, SolverSettings
 from intersection_cosim.games.sqp import sqp_best_response
 from intersection_cosim.games.dynamics import rollout
 from intersection_cosim.games.objective import PlayerObjective
@@ -21,25 +22,25 @@ from intersection_cosim.models.cost import (efficiency_cost, lateral_safety_cost
 
 
 def test_settings_defaults_check_clean(gs):
-    assert gs.check() == []
-    assert gs.steps == 30
-    bad = GameSettings(horizon=3.05, a_min=1.0, scheme="newton", comfort_brake=5.0, yield_order="fifo")
-    fields = {f for f, _ in bad.check()}
-    assert {"horizon", "a_min", "scheme", "comfort_brake", "yield_order"} <= fields
+    assert gs.problem.check() == [] and gs.solver.check() == []
+    assert gs.problem.steps == 30
+    bad = ProblemSettings(horizon=3.05, a_min=1.0, comfort_brake=5.0)
+    assert {f for f, _ in bad.check()} == {"horizon", "a_min", "comfort_brake"}
+    assert {f for f, _ in SolverSettings(scheme="newton", trust_region=9.0).check()} == {"scheme", "trust_region"}
 
 
 def test_rollout_is_exact_discretisation(gs):
-    a = np.linspace(-2.0, 2.0, gs.steps)
-    v, s = rollout(3.0, 5.0, a, gs.dt)
+    a = np.linspace(-2.0, 2.0, gs.problem.steps)
+    v, s = rollout(3.0, 5.0, a, gs.problem.dt)
     v_ref, s_ref, vk, sk = [], [], 5.0, 3.0
     for ak in a:
-        sk += vk * gs.dt + 0.5 * ak * gs.dt**2
-        vk += ak * gs.dt
+        sk += vk * gs.problem.dt + 0.5 * ak * gs.problem.dt**2
+        vk += ak * gs.problem.dt
         v_ref.append(vk)
         s_ref.append(sk)
     assert v == pytest.approx(v_ref, abs=1e-12)
     assert s == pytest.approx(s_ref, abs=1e-12)
-    plan = Plan.from_accelerations(3.0, 5.0, a, gs.dt)
+    plan = Plan.from_accelerations(3.0, 5.0, a, gs.problem.dt)
     assert plan.speeds[0] == 5.0 and plan.positions[0] == 3.0
     assert plan.speeds[1:] == pytest.approx(v_ref)
 
@@ -48,7 +49,7 @@ def _cross_objective(gs, ms, kappa=0.5, other_a=None):
     problem = Problem((Player(0.0, 6.0, kappa), Player(2.0, 5.0, 0.5)),
                       (Interaction.cross(0, 1, 14.0, 12.0),))
     obj = PlayerObjective(problem, 0, gs, ms)
-    other = Plan.from_accelerations(2.0, 5.0, np.zeros(gs.steps) if other_a is None else other_a, gs.dt)
+    other = Plan.from_accelerations(2.0, 5.0, np.zeros(gs.problem.steps) if other_a is None else other_a, gs.problem.dt)
     obj.set_others([None, other])
     return problem, obj, other
 
@@ -56,15 +57,15 @@ def _cross_objective(gs, ms, kappa=0.5, other_a=None):
 def test_true_cost_is_the_paper_running_cost(gs, ms):
     """C = dt * sum_k J(x_k) + comfort, J from models.cost (Eqs. 13-24)."""
     problem, obj, other = _cross_objective(gs, ms)
-    a = np.linspace(1.0, -1.0, gs.steps)
-    v, s = rollout(0.0, 6.0, a, gs.dt)
+    a = np.linspace(1.0, -1.0, gs.problem.steps)
+    v, s = rollout(0.0, 6.0, a, gs.problem.dt)
     tcp0 = time_to_conflict_point(14.0 - s, v, ms.tcp_speed_floor)
     tcp1 = time_to_conflict_point(12.0 - other.positions[1:], other.speeds[1:], ms.tcp_speed_floor)
     active = (s - 14.0 <= ms.conflict_clearance) & (other.positions[1:] - 12.0 <= ms.conflict_clearance)
     j = running_cost(0.5, 0.0, lateral_safety_cost(tcp0, tcp1, ms.eps, active), 0.0,
                      efficiency_cost(v, ms.v_max, ms.k_e), ms)
-    comfort = gs.w_accel * np.sum(a**2) + gs.w_jerk / gs.dt**2 * np.sum(np.diff(a) ** 2)
-    assert obj.cost(a) == pytest.approx(gs.dt * (np.sum(j) + comfort), rel=1e-12)
+    comfort = gs.problem.w_accel * np.sum(a**2) + gs.problem.w_jerk / gs.problem.dt**2 * np.sum(np.diff(a) ** 2)
+    assert obj.cost(a) == pytest.approx(gs.problem.dt * (np.sum(j) + comfort), rel=1e-12)
     # batched evaluation agrees
     assert obj.cost(np.stack([a, 0 * a]))[0] == pytest.approx(obj.cost(a), rel=1e-12)
 
@@ -73,15 +74,15 @@ def test_true_cost_is_the_paper_running_cost(gs, ms):
 def test_gradient_matches_finite_differences(gs, ms, kind):
     rng = np.random.default_rng(3)
     if kind == "cross":
-        problem, obj, other = _cross_objective(gs, ms, other_a=rng.uniform(-1, 1, gs.steps))
+        problem, obj, other = _cross_objective(gs, ms, other_a=rng.uniform(-1, 1, gs.problem.steps))
     else:
         problem = Problem((Player(0.0, 7.0, 0.4), Player(25.0, 4.0, 0.5)), (Interaction.following(0, 1),))
         obj = PlayerObjective(problem, 0, gs, ms)
-        other = Plan.from_accelerations(25.0, 4.0, rng.uniform(-1, 1, gs.steps), gs.dt)
+        other = Plan.from_accelerations(25.0, 4.0, rng.uniform(-1, 1, gs.problem.steps), gs.problem.dt)
         obj.set_others([None, other])
-    a = rng.uniform(-1, 1, gs.steps)
+    a = rng.uniform(-1, 1, gs.problem.steps)
     c, g, H = obj.cost_and_model(a)
-    fd = np.array([(obj.cost(a + 1e-6 * e) - obj.cost(a - 1e-6 * e)) / 2e-6 for e in np.eye(gs.steps)])
+    fd = np.array([(obj.cost(a + 1e-6 * e) - obj.cost(a - 1e-6 * e)) / 2e-6 for e in np.eye(gs.problem.steps)])
     assert g == pytest.approx(fd, abs=1e-7)
     assert obj.gradient(a) == pytest.approx(g, abs=1e-12)
     assert np.linalg.eigvalsh(H).min() > 0.0  # the convex model
@@ -90,12 +91,12 @@ def test_gradient_matches_finite_differences(gs, ms, kind):
     assert gp == pytest.approx(g, abs=1e-12)
 
     def cost_for_other(b):
-        obj.set_others([None, Plan.from_accelerations(other.positions[0], other.speeds[0], b, gs.dt)])
+        obj.set_others([None, Plan.from_accelerations(other.positions[0], other.speeds[0], b, gs.problem.dt)])
         return obj.cost(a)
 
     b = other.accelerations
     fdq = np.array([(cost_for_other(b + 1e-6 * e) - cost_for_other(b - 1e-6 * e)) / 2e-6
-                    for e in np.eye(gs.steps)])
+                    for e in np.eye(gs.problem.steps)])
     assert gq == pytest.approx(fdq, abs=1e-7)
     joint = np.block([[Hpp, Hpq], [Hpq.T, Hqq]])
     assert np.linalg.eigvalsh(joint).min() > -1e-12
@@ -103,8 +104,8 @@ def test_gradient_matches_finite_differences(gs, ms, kind):
 
 def test_best_response_decreases_true_cost_every_step(gs, ms):
     problem, obj, other = _cross_objective(gs, ms)
-    a = project_accelerations(np.zeros(gs.steps), obj.v0, obj.v_cap, gs)
-    ws = workspace(gs.steps, gs, "test-monotone")
+    a = project_accelerations(np.zeros(gs.problem.steps), obj.v0, obj.v_cap, gs)
+    ws = workspace(gs.problem.steps, gs, "test-monotone")
     costs = [obj.cost(a)]
     for _ in range(8):
         out = sqp_best_response(obj, a, ws, gs, 1)
@@ -116,8 +117,8 @@ def test_best_response_decreases_true_cost_every_step(gs, ms):
     assert res.status == "converged"
     assert res.cost == pytest.approx(costs[-1], rel=1e-3)
     # feasibility
-    assert np.all(res.plan.accelerations >= gs.a_min - 1e-6)
-    assert np.all(res.plan.accelerations <= gs.a_max + 1e-6)
+    assert np.all(res.plan.accelerations >= gs.problem.a_min - 1e-6)
+    assert np.all(res.plan.accelerations <= gs.problem.a_max + 1e-6)
     assert np.all(res.plan.speeds >= -1e-6) and np.all(res.plan.speeds <= ms.v_max + 1e-6)
 
 
@@ -128,7 +129,7 @@ def test_best_response_alone_without_game(gs, ms):
     no_lat = dataclasses.replace(ms, k_lat=0.0)
     problem = Problem((Player(0.0, 8.0, 0.3), Player(12.0, 3.0, 0.5), Player(0.0, 5.0, 0.5)),
                       (Interaction.following(0, 1), Interaction.cross(0, 2, 20.0, 20.0)))
-    leader = Plan.from_accelerations(12.0, 3.0, np.zeros(gs.steps), gs.dt)
+    leader = Plan.from_accelerations(12.0, 3.0, np.zeros(gs.problem.steps), gs.problem.dt)
     res = best_response(problem, 0, {1: leader}, gs, no_lat)
     assert res.status == "converged"
     gap = leader.positions - res.plan.positions - ms.vehicle_length
@@ -140,29 +141,29 @@ def test_best_response_alone_without_game(gs, ms):
 
 
 def test_qp_workspace_is_set_up_once_and_reused(gs):
-    ws1 = workspace(gs.steps, gs, "test-reuse")
-    ws2 = workspace(gs.steps, gs, "test-reuse")
+    ws1 = workspace(gs.problem.steps, gs, "test-reuse")
+    ws2 = workspace(gs.problem.steps, gs, "test-reuse")
     assert ws1 is ws2
     solver = ws1.solver
-    H = np.eye(gs.steps)
-    g = -np.ones(gs.steps)
-    l, u = np.empty(2 * gs.steps), np.empty(2 * gs.steps)
-    l[gs.steps:], u[gs.steps:] = ws1.speed_rows(5.0, 10.0, gs.dt)
-    l[:gs.steps], u[:gs.steps] = gs.a_min, gs.a_max
-    sol = ws1.solve(H, g, np.zeros(gs.steps), l, u)
+    H = np.eye(gs.problem.steps)
+    g = -np.ones(gs.problem.steps)
+    l, u = np.empty(2 * gs.problem.steps), np.empty(2 * gs.problem.steps)
+    l[gs.problem.steps:], u[gs.problem.steps:] = ws1.speed_rows(5.0, 10.0, gs.problem.dt)
+    l[:gs.problem.steps], u[:gs.problem.steps] = gs.problem.a_min, gs.problem.a_max
+    sol = ws1.solve(H, g, np.zeros(gs.problem.steps), l, u)
     assert sol.ok
-    assert sol.x == pytest.approx(np.ones(gs.steps), abs=1e-3)  # unconstrained optimum a = 1
-    sol2 = ws1.solve(H, 2 * g, np.zeros(gs.steps), l, u)
+    assert sol.x == pytest.approx(np.ones(gs.problem.steps), abs=1e-3)  # unconstrained optimum a = 1
+    sol2 = ws1.solve(H, 2 * g, np.zeros(gs.problem.steps), l, u)
     assert ws1.solver is solver and sol2.ok
     # speed cap binds: v0 = 5, v_cap = 10 -> sum a dt <= 5 over the first steps
-    assert np.cumsum(sol2.x)[-1] * gs.dt <= 5.0 + 1e-3
+    assert np.cumsum(sol2.x)[-1] * gs.problem.dt <= 5.0 + 1e-3
 
 
 def test_qp_reports_infeasible_and_bad_data(gs):
-    ws = QPWorkspace(gs.steps, gs)
-    n = gs.steps
+    ws = QPWorkspace(gs.problem.steps, gs)
+    n = gs.problem.steps
     l, u = np.empty(2 * n), np.empty(2 * n)
-    l[n:], u[n:] = ws.speed_rows(0.0, 10.0, gs.dt)
+    l[n:], u[n:] = ws.speed_rows(0.0, 10.0, gs.problem.dt)
     l[:n], u[:n] = -4.0, -3.0  # must brake from standstill while v >= 0: infeasible
     sol = ws.solve(np.eye(n), np.zeros(n), np.zeros(n), l, u)
     assert not sol.ok and "infeasible" in sol.status
@@ -172,8 +173,8 @@ def test_qp_reports_infeasible_and_bad_data(gs):
 
 def test_safe_plan_brakes_comfortably_to_stop(gs):
     plan = safe_plan(Player(10.0, 5.0, 0.5), gs)
-    assert plan.accelerations.min() >= -gs.comfort_brake - 1e-12
-    assert plan.accelerations[0] == pytest.approx(-gs.comfort_brake)
+    assert plan.accelerations.min() >= -gs.problem.comfort_brake - 1e-12
+    assert plan.accelerations[0] == pytest.approx(-gs.problem.comfort_brake)
     assert plan.speeds.min() == pytest.approx(0.0, abs=1e-12)
     assert plan.speeds[-1] == 0.0  # 5 m/s at 2 m/s^2 stops after 2.5 s < 3 s
     assert np.all(np.diff(plan.positions) >= -1e-9)
@@ -196,13 +197,13 @@ def test_nan_input_gives_solver_failure_and_safe_plan(gs, ms, solver):
         plans = [None, result.plan]
     assert result.status == "solver failure"
     braking = plans[1]
-    assert braking.accelerations[0] == pytest.approx(-gs.comfort_brake)
+    assert braking.accelerations[0] == pytest.approx(-gs.problem.comfort_brake)
     assert braking.speeds[-1] == pytest.approx(0.0) and braking.speeds.min() >= 0.0
 
 
 def test_infeasible_input_gives_solver_failure(ms):
     """a_max < 0: v >= 0 cannot hold over the horizon from 2 m/s; OSQP reports infeasibility."""
-    gs = GameSettings(a_max=-1.0)
+    gs = GameSettings(ProblemSettings(a_max=-1.0))
     problem = Problem((Player(0.0, 2.0, 0.5), Player(0.0, 6.0, 0.5)), (Interaction.cross(0, 1, 20.0, 18.0),))
     for result in (nash_equilibrium(problem, gs, ms), stackelberg_equilibrium(problem, gs, ms)):
         assert result.status == "solver failure"
@@ -215,32 +216,32 @@ def test_infeasible_input_gives_solver_failure(ms):
 
 def test_nan_in_other_plan_gives_failure(gs, ms):
     problem, obj, other = _cross_objective(gs, ms)
-    bad = Plan(other.accelerations, other.speeds * np.nan, other.positions, gs.dt)
+    bad = Plan(other.accelerations, other.speeds * np.nan, other.positions, gs.problem.dt)
     assert best_response(problem, 0, [None, bad], gs, ms).status == "solver failure"
 
 
 def test_shift_plan_drops_first_step(gs):
-    a = np.linspace(2.0, -1.0, gs.steps)
-    plan = Plan.from_accelerations(0.0, 5.0, a, gs.dt, duals=np.arange(2.0 * gs.steps))
+    a = np.linspace(2.0, -1.0, gs.problem.steps)
+    plan = Plan.from_accelerations(0.0, 5.0, a, gs.problem.dt, duals=np.arange(2.0 * gs.problem.steps))
     shifted = shift_plan(plan)
     assert shifted.accelerations[:-1] == pytest.approx(a[1:])
     assert shifted.accelerations[-1] == pytest.approx(a[-1])
     assert shifted.speeds[0] == pytest.approx(plan.speeds[1])
     assert shifted.positions[0] == pytest.approx(plan.positions[1])
     assert shifted.positions[:-1] == pytest.approx(plan.positions[1:])
-    assert shifted.duals[0] == 1.0 and shifted.duals[gs.steps] == gs.steps + 1.0
+    assert shifted.duals[0] == 1.0 and shifted.duals[gs.problem.steps] == gs.problem.steps + 1.0
     # the appended step never makes the speed negative
-    stop = Plan.from_accelerations(0.0, 0.3, np.full(gs.steps, -0.01), gs.dt)
+    stop = Plan.from_accelerations(0.0, 0.3, np.full(gs.problem.steps, -0.01), gs.problem.dt)
     assert shift_plan(stop).speeds.min() >= 0.0
 
 
 def test_project_accelerations_feasible(gs):
-    a = project_accelerations(np.full(gs.steps, 5.0), 9.0, 10.0, gs)
-    v = 9.0 + gs.dt * np.cumsum(a)
-    assert a.max() <= gs.a_max and v.max() <= 10.0 + 1e-12
-    a = project_accelerations(np.full(gs.steps, -9.0), 1.0, 10.0, gs)
-    assert (1.0 + gs.dt * np.cumsum(a)).min() >= -1e-12
-    assert np.all(project_accelerations([np.nan] * gs.steps, 5.0, 10.0, gs) == 0.0)
+    a = project_accelerations(np.full(gs.problem.steps, 5.0), 9.0, 10.0, gs)
+    v = 9.0 + gs.problem.dt * np.cumsum(a)
+    assert a.max() <= gs.problem.a_max and v.max() <= 10.0 + 1e-12
+    a = project_accelerations(np.full(gs.problem.steps, -9.0), 1.0, 10.0, gs)
+    assert (1.0 + gs.problem.dt * np.cumsum(a)).min() >= -1e-12
+    assert np.all(project_accelerations([np.nan] * gs.problem.steps, 5.0, 10.0, gs) == 0.0)
 
 
 def test_deadline_anytime_mode(pair_battery, gs, ms, monkeypatch):
@@ -258,7 +259,7 @@ def test_deadline_anytime_mode(pair_battery, gs, ms, monkeypatch):
         return respond(self, *args, **kwargs)
 
     monkeypatch.setattr(nash_module._Game, "respond", slow_respond)
-    endless = GameSettings(nash_tol=1e-12, nash_cost_rtol=0.0, nash_max_iter=1000)
+    endless = GameSettings(solver=SolverSettings(nash_tol=1e-12, nash_cost_rtol=0.0, nash_max_iter=1000))
     start = time.perf_counter()
     soon = nash_equilibrium(problem, endless, ms, deadline=start + 0.02)
     assert soon.status == "deadline"
@@ -272,5 +273,5 @@ def test_record_costs_gives_convergence_history(pair_battery, gs, ms):
     assert result.cost_history.shape == (result.iterations, 2)
     assert result.cost_history[-1] == pytest.approx(result.costs)
     assert len(result.residuals) == result.iterations
-    assert result.residuals[-1] < gs.nash_cost_guard
+    assert result.residuals[-1] < gs.solver.nash_cost_guard
     assert result.payoffs == pytest.approx(-result.costs)

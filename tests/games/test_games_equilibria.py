@@ -9,6 +9,7 @@ from intersection_cosim.games import (GameSettings, Interaction, Player, Problem
                                       check_nash, check_stackelberg, nash_equilibrium,
                                       shift_plans, stackelberg_equilibrium, stackelberg_leader)
 from intersection_cosim.games.battery import advance
+from intersection_cosim.games.settings import SolverSettings
 from intersection_cosim.models.cost import time_to_conflict_point
 
 
@@ -50,7 +51,7 @@ def test_decoupled_game_gives_own_optimum_in_one_iteration(gs, ms):
     result = nash_equilibrium(Problem(players), gs, ms)
     assert result.status == "converged"
     assert result.iterations == 1
-    assert result.residuals[0] < gs.nash_tol
+    assert result.residuals[0] < gs.solver.nash_tol
     for p in range(3):
         alone = best_response(Problem(players), p, None, gs, ms)
         assert alone.status == "converged"
@@ -63,11 +64,11 @@ def test_decoupled_game_gives_own_optimum_in_one_iteration(gs, ms):
 def test_a_single_player_game_is_its_best_response(gs, ms):
     """A vehicle alone (the controller's solo solve) is one best response: cold, it ends near the
     stand-alone best response; warm from that, one QP confirms it."""
-    lead = (15.0 + 4.0 * 0.1 * np.arange(1, gs.steps + 1), np.full(gs.steps, 4.0))  # [m], [m/s]
+    lead = (15.0 + 4.0 * 0.1 * np.arange(1, gs.problem.steps + 1), np.full(gs.problem.steps, 4.0))  # [m], [m/s]
     problem = Problem((Player(0.0, 8.0, 0.5, leader=lead),))
     cold = nash_equilibrium(problem, gs, ms)
     alone = best_response(problem, 0, None, gs, ms)
-    assert cold.status == "converged" and cold.iterations < gs.nash_max_iter
+    assert cold.status == "converged" and cold.iterations < gs.solver.nash_max_iter
     # the iteration stops on the Nash criteria (a step gaining < nash_cost_rtol): near, not at,
     # the stand-alone best response (within the 1 % Nash-gap target of the issue)
     assert alone.cost - 1e-9 <= cold.costs[0] <= alone.cost * 1.015
@@ -105,7 +106,7 @@ def test_warm_start_median_iterations(pair_battery, nash_battery, gs, ms):
     """Receding horizon over 3 s (30 shifted problems per pair): median iterations <= 2."""
     iterations = []
     for problem, result in list(zip(pair_battery, nash_battery))[:8]:
-        for _ in range(int(round(3.0 / gs.dt))):
+        for _ in range(int(round(3.0 / gs.problem.dt))):
             problem = advance(problem, result.plans)
             result = nash_equilibrium(problem, gs, ms, warm_start=shift_plans(result))
             assert result.status == "converged"
@@ -118,7 +119,7 @@ def test_warm_start_reproduces_converged_plans(pair_battery, nash_battery, gs, m
     for problem, result in list(zip(pair_battery, nash_battery))[:10]:
         again = nash_equilibrium(problem, gs, ms, warm_start=result)
         assert again.iterations <= 2
-        assert again.accelerations == pytest.approx(result.accelerations, abs=gs.nash_cost_guard)
+        assert again.accelerations == pytest.approx(result.accelerations, abs=gs.solver.nash_cost_guard)
 
 
 def test_jacobi_converges_to_same_equilibrium(pair_battery, nash_battery, gs, ms):
@@ -126,7 +127,7 @@ def test_jacobi_converges_to_same_equilibrium(pair_battery, nash_battery, gs, ms
     (no player gains 1 % by deviating). A strongly coupled pair can have several local
     equilibria: in battery problem 3 one of the two schemes may stop where a player could still
     gain 11-12 % by passing first, depending on the solves before it (warm OSQP workspaces)."""
-    jacobi = GameSettings(scheme="jacobi", nash_max_iter=60)
+    jacobi = GameSettings(solver=SolverSettings(scheme="jacobi", nash_max_iter=60))
     same = 0
     for problem, result in list(zip(pair_battery, nash_battery))[:10]:
         other = nash_equilibrium(problem, jacobi, ms)

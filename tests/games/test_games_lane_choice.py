@@ -40,7 +40,7 @@ def test_aggressive_v3_takes_middle_lane_cautious_keeps_inner(gs, ms):
     # J_lk is charged in the middle lane: (1 - kappa) k_lk J_lk over the 3 s horizon
     no_lk = lane_choice_game(problems, None, settings=gs, model_settings=ms)
     extra = aggressive.costs[MIDDLE][0] - no_lk.costs[MIDDLE][0]
-    assert extra == pytest.approx(gs.horizon * 0.15 * ms.k_lk * lane_change_cost(4.0, ms), rel=0.05)
+    assert extra == pytest.approx(gs.problem.horizon * 0.15 * ms.k_lk * lane_change_cost(4.0, ms), rel=0.05)
     # V3 is faster in the middle lane than stuck behind V4
     assert aggressive.results[MIDDLE].plans[0].mean_speed > aggressive.results[INNER].plans[0].mean_speed
 

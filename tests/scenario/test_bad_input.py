@@ -54,6 +54,18 @@ CASES = [
      "position = [4.0, -30.0]"), "vehicle[V1].position", "[4.0, -30.0]"),
     ("wrong type", HEADER.replace("5.0", '"long"') + GOOD_VEHICLE, "scenario.duration", "'long'"),
     ("malformed TOML", HEADER + "[[vehicle]\nid = 1\n", "toml", "line"),
+    ("a game key in the solver table", HEADER + '[controller]\nkind = "nash"\n[controller.solver]\nhorizon = 4.0\n'
+     + GOOD_VEHICLE, "controller.solver.horizon", "4.0: moved to [controller.game]"),
+    ("a safety key in the policy table", HEADER + '[controller]\nkind = "nash"\n[controller.policy]\n'
+     'safety_margin = 2.0\n' + GOOD_VEHICLE, "controller.policy.safety_margin", "2.0: moved to [controller.safety]"),
+    ("a policy key in the solver table", HEADER + '[controller]\nkind = "stackelberg"\n[controller.solver]\n'
+     'solo_max_iter = 2\n' + GOOD_VEHICLE, "controller.solver.solo_max_iter", "2: moved to [controller.policy]"),
+    ("an unknown key of a sub-table", HEADER + '[controller]\nkind = "nash"\n[controller.safety]\ngap = 2.0\n'
+     + GOOD_VEHICLE, "controller.safety.gap", "2.0"),
+    ("a bad value in a sub-table", HEADER + '[controller]\nkind = "nash"\n[controller.safety]\nyield_order = "fifo"\n'
+     + GOOD_VEHICLE, "controller.safety.yield_order", "'fifo'"),
+    ("a table fcfs does not take", HEADER + '[controller]\nkind = "fcfs"\n[controller.policy]\nsolo_max_iter = 2\n'
+     + GOOD_VEHICLE, "controller.policy.solo_max_iter", "only [controller.solver]"),
 ]
 
 

@@ -51,3 +51,23 @@ def test_case2_start_points_and_v4_in_junction(variant):
     assert [by_id[f"V{i}"].speed for i in range(1, 6)] == [6.0, 5.0, 5.5, 5.0, 6.0]
     # "the low speed of V4": it keeps its 5 m/s; the others drive up to the model's v_max
     assert [by_id[f"V{i}"].desired_speed for i in range(1, 6)] == [None, None, None, 5.0, None]
+
+
+def test_the_game_controllers_tables_set_their_settings():
+    """[controller.game], [controller.solver], [controller.policy] and [controller.safety] each
+    set their own settings object; the rest keep their defaults."""
+    from intersection_cosim.control.settings import GameControllerSettings
+    from intersection_cosim.scenario import scenario_from_dict
+
+    data = {"scenario": {"name": "t", "duration": 5.0},
+            "controller": {"kind": "stackelberg", "game": {"horizon": 4.0}, "solver": {"nash_tol": 0.02},
+                           "policy": {"lane_choice_period": 3}, "safety": {"safety_time_gap": 0.7}},
+            "vehicle": [{"id": "V1", "approach": "south", "lane": "inner", "distance": 13.0, "movement": "left",
+                         "speed": 5.5, "kappa": 0.5}]}
+    settings = scenario_from_dict(data).controller_settings
+    default = GameControllerSettings()
+    assert isinstance(settings, GameControllerSettings)
+    assert (settings.game.horizon, settings.game.steps, settings.game.dt) == (4.0, 40, default.game.dt)
+    assert settings.solver.nash_tol == 0.02 and settings.policy.lane_choice_period == 3
+    assert settings.safety.safety_time_gap == 0.7 and settings.safety.safety_margin == default.safety.safety_margin
+    assert settings.games.problem is settings.game and settings.games.solver is settings.solver

@@ -1,0 +1,83 @@
+"""Settings of the game controller beyond the game itself: its policy (re-planning, lane choice,
+the anytime schedule) and its safety filter, each a typed frozen object with documented
+defaults, set from the scenario tables ``[controller.policy]`` and ``[controller.safety]``.
+
+:class:`GameControllerSettings` gathers the four tables of the ``nash`` and ``stackelberg``
+controllers: ``[controller.game]`` (the game problem), ``[controller.solver]``,
+``[controller.policy]`` and ``[controller.safety]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from intersection_cosim.games.settings import GameSettings, ProblemSettings, SolverSettings
+from intersection_cosim.settings import non_negative, positive
+
+YIELD_ORDERS = ("tcp", "plan")
+
+
+@dataclass(frozen=True)
+class PolicySettings:
+    """How the controller re-plans, chooses exit lanes and meets its step budget."""
+
+    free_resolve_steps: int = 5  # [-] most control steps between solves of a vehicle in no game
+    #                              whose inputs did not change (control/solo.py)
+    solo_max_iter: int = 1  # [-] SQP steps of a solo vehicle's best response per control step
+    #                         (real-time iteration: an unconverged plan is applied and the SQP
+    #                         goes on from it, shifted, at the next step; games are not capped)
+    solo_leader_tol: float = 0.1  # [m] and [m/s]: a solo vehicle solves again when its leader's
+    #                               predicted positions (speeds) moved more than this since its solve
+    lane_choice_range: float = 30.0  # [m] a vehicle chooses among its exit lanes only within this
+    #                                  distance of its stop line (v_max * horizon: what the plan
+    #                                  reaches); farther out it keeps its current exit lane
+    lane_choice_period: int = 5  # [-] control steps between a vehicle's exit-lane decisions (it
+    #                              holds its choice in between; 1 = decide every step)
+    anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
+    #                                and solo solves that would not finish before the rest of the
+    #                                budget are deferred (their vehicles keep their last plan, shifted)
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = positive(self, "free_resolve_steps", "solo_max_iter", "lane_choice_period")
+        problems += non_negative(self, "solo_leader_tol", "lane_choice_range", "anytime_reserve")
+        if not self.anytime_reserve < 1:
+            problems.append(("anytime_reserve", "must be < 1"))
+        return problems
+
+
+@dataclass(frozen=True)
+class SafetySettings:
+    """The safety filter on the controller's accelerations (not in the paper; control/safety.py)."""
+
+    safety_filter: bool = True  # [-] check every applied acceleration against collision
+    safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
+    safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
+    yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
+    #                          junction: "tcp" = smaller time to the crossing at the current speed
+    #                          (the paper's leader rule, Section IV-D; a pair that played its game
+    #                          keeps the game's order, by its plans), "plan" = earlier arrival by
+    #                          this step's plans for every pair
+    clear_accel: float = 1.0  # [m/s^2] box rule: a vehicle standing (below clear_speed) inside a
+    #                           crossing that another vehicle waits for drives out at least this hard
+    clear_speed: float = 1.0  # [m/s]
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = non_negative(self, "safety_time_gap", "safety_margin", "clear_accel", "clear_speed")
+        if self.yield_order not in YIELD_ORDERS:
+            problems.append(("yield_order", f"must be one of {', '.join(YIELD_ORDERS)}"))
+        return problems
+
+
+@dataclass(frozen=True)
+class GameControllerSettings:
+    """Everything the ``nash`` and ``stackelberg`` controllers are set with, one table each."""
+
+    game: ProblemSettings = field(default_factory=ProblemSettings)  # [controller.game]
+    solver: SolverSettings = field(default_factory=SolverSettings)  # [controller.solver]
+    policy: PolicySettings = field(default_factory=PolicySettings)  # [controller.policy]
+    safety: SafetySettings = field(default_factory=SafetySettings)  # [controller.safety]
+
+    @property
+    def games(self) -> GameSettings:
+        """The game problem and solver, as the games layer takes them."""
+        return GameSettings(self.game, self.solver)
