@@ -209,7 +209,7 @@ def load_conflicts(net_file: str | FsPath, vehicle_width: float = 1.8) -> dict[t
 def _body_points(path: MovementPath, s_front: np.ndarray, length: float, width: float,
                  outline: bool) -> np.ndarray:
     """[m] (S, B, 2) points of the body rectangle (``length`` x ``width``, heading of the path at
-    the front bumper, as :func:`report.metrics.body_overlaps` places it) for each front arc
+    the front bumper, as :func:`results.metrics.body_overlaps` places it) for each front arc
     length in ``s_front``: its outline, or a grid over its whole area, ``_ZONE_STEP`` apart."""
     along = np.linspace(-length, 0.0, int(np.ceil(length / _ZONE_STEP)) + 1)
     across = np.linspace(-width / 2, width / 2, int(np.ceil(width / _ZONE_STEP)) + 1)

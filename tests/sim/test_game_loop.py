@@ -9,7 +9,7 @@ import pytest
 
 from intersection_cosim.control.game import GameController
 from intersection_cosim.experiments.run import run_scenario
-from intersection_cosim.report.metrics import body_overlaps
+from intersection_cosim.results.metrics import body_overlaps
 from intersection_cosim.scenario import load_scenario, with_overrides
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
