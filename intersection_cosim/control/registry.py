@@ -1,7 +1,9 @@
 """Registry of controllers by name: the only place that knows every controller.
 
-Each entry maps a name to a factory ``(scenario) -> Controller`` and the settings class of its
-``[controller.solver]`` table (None if it takes none).
+Each entry maps a name to a factory ``(solver settings, junction type) -> Controller`` and the
+settings class of its ``[controller.solver]`` table (None if it takes none). The factory gets plain
+values, not a Scenario: the scenario layer sits above this one (it validates a scenario file's
+``[controller]`` table against :func:`names` and :func:`validate_solver_table`).
 """
 
 from __future__ import annotations
@@ -9,13 +11,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from intersection_cosim.control.base import Controller
+from intersection_cosim.control.fcfs import FcfsController, FcfsSettings
+from intersection_cosim.control.game import GameController
+from intersection_cosim.control.sumo_baseline import SumoController
 from intersection_cosim.errors import InputError
+from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.settings import from_table
 
 
 @dataclass(frozen=True)
 class Entry:
-    factory: Callable[[Any], Any]  # (Scenario) -> Controller
+    factory: Callable[[Any, str], Controller]  # (solver settings or None, junction type) -> Controller
     solver_settings: type | None = None
     description: str = ""
 
@@ -28,12 +35,10 @@ def register(name: str, entry: Entry) -> None:
 
 
 def names() -> list[str]:
-    _load_builtin()
     return sorted(_REGISTRY)
 
 
 def get(name: str) -> Entry:
-    _load_builtin()
     return _REGISTRY[name]
 
 
@@ -47,36 +52,25 @@ def validate_solver_table(kind: str, table: dict, src: str) -> Any:
     return from_table(entry.solver_settings, table, src, "controller.solver")
 
 
-def create(scenario) -> Any:
-    return get(scenario.controller.kind).factory(scenario)
+def create(kind: str, solver: Any, junction_type: str) -> Controller:
+    """A new controller ``kind`` with its validated solver settings; ``junction_type`` is the
+    scenario's SUMO node type of the centre (used by the ``sumo`` controller)."""
+    return get(kind).factory(solver, junction_type)
 
 
-_loaded = False
-
-
-def _load_builtin() -> None:
-    global _loaded
-    if _loaded:
-        return
-    _loaded = True
-    from intersection_cosim.control.sumo_baseline import SumoController
-
-    register("sumo", Entry(lambda scn: SumoController(junction_type=scn.scenario.junction_type),
+def _register_builtin() -> None:
+    register("sumo", Entry(lambda solver, jtype: SumoController(junction_type=jtype),
                            None, "SUMO's own driver model and right of way"))
-    for name, jtype, what in (("sumo-priority", "priority", "priority junction (right of way by road priority)"),
+    for name, fixed, what in (("sumo-priority", "priority", "priority junction (right of way by road priority)"),
                               ("sumo-allway-stop", "allway_stop", "all-way stop"),
                               ("sumo-tls", "traffic_light", "traffic lights, SUMO's default signal programme")):
-        register(name, Entry(lambda scn, jtype=jtype: SumoController(junction_type=jtype),
+        register(name, Entry(lambda solver, jtype, fixed=fixed: SumoController(junction_type=fixed),
                              None, f"baseline: SUMO's driver model at a {what}"))
-
-    from intersection_cosim.control.game import GameController
-    from intersection_cosim.games.settings import GameSettings
-
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
-        register(name, Entry(lambda scn, name=name: GameController(name, scn.solver),
+        register(name, Entry(lambda solver, jtype, name=name: GameController(name, solver),
                              GameSettings, f"the paper's differential game, {what} equilibrium"))
-
-    from intersection_cosim.control.fcfs import FcfsController, FcfsSettings
-
-    register("fcfs", Entry(lambda scn: FcfsController(scn.solver), FcfsSettings,
+    register("fcfs", Entry(lambda solver, jtype: FcfsController(solver), FcfsSettings,
                            "first-come-first-served reservation of the conflict points (Dresner and Stone)"))
+
+
+_register_builtin()

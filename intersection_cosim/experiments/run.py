@@ -104,7 +104,7 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     from intersection_cosim.sim.sumo import SumoSimulation, VehicleInfo
 
     s = scn.scenario
-    controller = registry.create(scn)
+    controller = registry.create(scn.controller.kind, scn.solver, s.junction_type)
     net = cached_net(IntersectionSpec(junction_type=controller.junction_type))
     shutil.copyfile(net, folder / NET_FILE)
     paths = load_paths(net)

@@ -6,6 +6,7 @@ written anywhere while loading (the net used for placement comes from the per-us
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 from pathlib import Path
@@ -13,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from intersection_cosim.control import registry
 from intersection_cosim.errors import InputError
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.cache import cached_net
@@ -237,8 +239,6 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
     if not isinstance(solver, dict):
         raise InputError(src, "controller.solver", solver, "must be a table")
     ctrl = from_table(ControllerSettings, ctrl_table, src, "controller")
-    from intersection_cosim.control import registry
-
     if ctrl.kind not in registry.names():
         raise InputError(src, "controller.kind", ctrl.kind, f"must be one of {', '.join(registry.names())}")
     solver_settings = registry.validate_solver_table(ctrl.kind, solver, src)
@@ -273,10 +273,6 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
 def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | None = None,
                    **controller_fields: Any) -> Scenario:
     """A copy with command-line overrides applied (validated like the file)."""
-    import dataclasses
-
-    from intersection_cosim.control import registry
-
     ctrl = scn.controller
     if controller is not None:
         if controller not in registry.names():

@@ -31,7 +31,7 @@ def _run(scn, out: Path):
     """Run ``scn`` into ``out``; returns (summary, the controller instance the run used)."""
     made = []
     original = registry.create
-    registry.create = lambda s: made.append(original(s)) or made[-1]
+    registry.create = lambda *args: made.append(original(*args)) or made[-1]
     try:
         summary = run_scenario(scn, out)
     finally:
@@ -66,7 +66,7 @@ def test_registry_has_the_baselines_and_fcfs():
         assert name in names
     scn = load_scenario(SCENARIOS / "case1_A.toml")
     for name, jtype in BASELINES.items():
-        ctrl = registry.get(name).factory(scn)
+        ctrl = registry.get(name).factory(scn.solver, scn.scenario.junction_type)
         assert ctrl.junction_type == jtype and not ctrl.controls_vehicles
     assert registry.get("fcfs").solver_settings is FcfsSettings
 
