@@ -26,6 +26,7 @@ from intersection_cosim.experiments.files import ROUTE_FILE, SUMOCFG_FILE, write
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import load_conflicts
+from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import load_paths
 from intersection_cosim.network.spec import IntersectionSpec
 from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, PAIRS_FILE,
@@ -120,7 +121,7 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                                   exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
                                   start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
     for fv in flow_vehicles:
-        pid = f"{fv['approach']}_{fv['lane']}_{fv['movement']}_{default_exit_lane(fv['lane'], fv['movement'])}"
+        pid = str(PathId(fv["approach"], fv["lane"], fv["movement"], default_exit_lane(fv["lane"], fv["movement"])))
         infos[fv["id"]] = VehicleInfo(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
                                       kappa=fv["kappa"], intended_path=pid,
                                       controlled=controller.controls_vehicles)

@@ -18,6 +18,7 @@ from intersection_cosim.control import registry
 from intersection_cosim.errors import InputError
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.cache import cached_net
+from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath, load_paths
 from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, IntersectionSpec
 from intersection_cosim.scenario.model import (
@@ -127,7 +128,7 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
             raise InputError(src, f"{field}.movement", movement,
                              f"the {lane} lane cannot turn {movement} (it allows {', '.join(LANE_USE[lane])})")
         chosen_exit = exit_lane or default_exit_lane(lane, movement)
-        pid = f"{approach}_{lane}_{movement}_{chosen_exit}"
+        pid = str(PathId(approach, lane, movement, chosen_exit))
         if pid not in paths:
             raise InputError(src, f"{field}.exit_lane", exit_lane,
                              f"a {movement} turn from the {lane} lane can exit on {', '.join(LANE_USE[lane][movement])}")
