@@ -40,7 +40,7 @@ Outside the junction, paths on different lanes run 4 m apart, so only the juncti
 ``[s_stop, s_exit]`` (plus one resampling step either side) is searched for rules 2 and 3.
 
 :class:`ConflictTable` packs the result into ``(P, P)`` numpy arrays indexed by integer path
-indices, which is what the run-time code (risk, roles, ETM) uses: looking up the conflict points of
+indices, which is what the run-time code (risk, ETM, controllers) uses: looking up the conflict points of
 all vehicle pairs is one fancy-indexing operation.
 
 Pure data; reads the net only through :func:`~intersection_cosim.network.paths.load_paths`.
