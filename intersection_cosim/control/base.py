@@ -67,6 +67,25 @@ class ControlContext:
     etm: bool  # event-triggered mechanism on
 
 
+@dataclass(frozen=True)
+class Diagnostics:
+    """What a controller reports about a run, beyond its Decisions (written by experiments.run).
+
+    ``convergence``: one record per game solved, in solve order, each with ``time`` [s],
+    ``vehicle_a``, ``vehicle_b``, ``solver``, ``status`` and ``residuals`` (one per iteration,
+    [m/s^2]): the rows of convergence.csv (the paper's Fig. 3). None for a controller that solves
+    no games (then the run has no convergence.csv); an empty tuple for one that solved none.
+    ``safety_interventions``: [-] commanded accelerations the safety filter lowered.
+    ``box_rule_clearances``: [-] accelerations the safety filter raised so a vehicle clears a
+    crossing it has entered (the box rule). Both None for a controller without that filter
+    (summary.json then records null).
+    """
+
+    convergence: tuple | None = None
+    safety_interventions: int | None = None
+    box_rule_clearances: int | None = None
+
+
 class Controller(Protocol):
     """A decision layer. A new controller is a new module plus a registry entry."""
 
@@ -83,4 +102,8 @@ class Controller(Protocol):
 
     def fallback(self, world: World) -> Decisions:
         """Safe decisions when ``decide`` misses its deadline or fails."""
+        ...
+
+    def diagnostics(self) -> Diagnostics:
+        """What the controller has to report about the run so far (see :class:`Diagnostics`)."""
         ...

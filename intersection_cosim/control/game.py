@@ -875,3 +875,9 @@ class GameController:
         if plan is None or self.options.get(vid) != option:
             return None
         return self._shift(plan)
+
+    def diagnostics(self) -> Diagnostics:
+        """The games' convergence records and the safety filter's counts (control.base.Diagnostics)."""
+        from intersection_cosim.control.base import Diagnostics  # module-level after the control-layer rewrite
+
+        return Diagnostics(tuple(self.convergence), self.filtered, self.cleared)

@@ -175,10 +175,10 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                        ssm, game_steps)
 
     traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
-    records = getattr(controller, "convergence", None)
-    if records is not None:
+    diagnostics = controller.diagnostics()
+    if diagnostics.convergence is not None:
         rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
-                for r in records for m, res in enumerate(r.residuals)]
+                for r in diagnostics.convergence for m, res in enumerate(r.residuals)]
         pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / CONVERGENCE_FILE, index=False,
                                                                float_format="%.6g")
     steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
@@ -195,8 +195,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                    "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),
                    "fallbacks": int(steps["fallback"].sum()),
                    "steps_with_deferred_work": int(steps["deferred"].gt(0).sum()),
-                   "safety_interventions": getattr(controller, "filtered", None),
-                   "box_rule_clearances": getattr(controller, "cleared", None)},
+                   "safety_interventions": diagnostics.safety_interventions,
+                   "box_rule_clearances": diagnostics.box_rule_clearances},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,

@@ -166,6 +166,8 @@ def test_baseline_runs_case1a_on_its_junction_type(name, tmp_path):
     summary, _ = _run(scn, tmp_path / "run")
     assert summary["counts"]["collisions"] == 0
     assert summary["counts"]["arrived"] == 3
+    assert summary["counts"]["safety_interventions"] is None  # Diagnostics(): no safety filter
+    assert not (tmp_path / "run" / "convergence.csv").exists()  # and no games
     assert _centre_type(tmp_path / "run" / "intersection.net.xml") == BASELINES[name]
 
 
@@ -176,6 +178,8 @@ def test_fcfs_runs_the_paper_cases(case, n, tmp_path):
     assert summary["counts"]["collisions"] == 0
     assert summary["counts"]["arrived"] == n == summary["counts"]["vehicles"]
     assert summary["counts"]["fallbacks"] == 0
+    assert (summary["counts"]["safety_interventions"], summary["counts"]["box_rule_clearances"]) == (None, None)
+    assert not (tmp_path / "run" / "convergence.csv").exists()
     assert _centre_type(tmp_path / "run" / "intersection.net.xml") == "priority"
     assert set(ctrl.history) == {v.id for v in scn.vehicles}
     assert _min_separation(ctrl.history) >= ctrl.fs.buffer - 1e-6
