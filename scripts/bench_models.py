@@ -2,10 +2,10 @@
 
 For N = 10, 50, 100 random vehicles on random movement paths it times, per control step:
 
-- prediction: path-constrained model-based prediction of every vehicle over t_p (Eqs. 1-4);
 - conflict_points: look-up of every vehicle pair's precomputed conflict point by path index;
 - risk_trigger: Gamma_cp of every conflicting pair and the ETM decision (Eqs. 5-9, 39);
-- total: the three in sequence (what the controller does each step).
+- total: the two in sequence (what the controller does each step; the prediction along the
+  paths is the arc length s + v t inside them, see models/prediction.py).
 
 Conflict points are computed once per net beforehand (not timed). Prints a table, then one JSON
 object with the median times in milliseconds on its last line. Target: total < 2 ms for N = 100.
@@ -24,13 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
-from intersection_cosim.models.path_table import PathTable
-from intersection_cosim.models.prediction import conflict_lookup, predict_along_paths
+from intersection_cosim.models.prediction import conflict_lookup
 from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.build import build_network
 from intersection_cosim.network.conflicts import load_conflict_table
-from intersection_cosim.network.paths import load_paths
 
 SIZES = (10, 50, 100)
 TARGET_MS = 2.0  # [ms] median total for 100 vehicles
@@ -49,8 +47,6 @@ def _median_ms(fn, repeat: int) -> float:
 
 def bench(net_file: Path, repeat: int, seed: int = 0) -> dict:
     settings = ModelSettings()
-    paths = load_paths(net_file)
-    ptable = PathTable.build(paths)
     ctable = load_conflict_table(net_file, settings.vehicle_width)
     rng = np.random.default_rng(seed)
     out: dict = {"unit": "ms (median)", "repeat": repeat, "target_ms_total_100": TARGET_MS}
@@ -59,9 +55,6 @@ def bench(net_file: Path, repeat: int, seed: int = 0) -> dict:
         s = rng.uniform(ctable.s_stop[idx] - 50.0, ctable.s_exit[idx] + 10.0)
         v = rng.uniform(0.0, 12.0, n)
         kappa = rng.uniform(0.0, 1.0, n)
-
-        def prediction():
-            return predict_along_paths(ptable, idx, s, v, settings)
 
         def lookup():
             return conflict_lookup(ctable, idx)
@@ -72,7 +65,6 @@ def bench(net_file: Path, repeat: int, seed: int = 0) -> dict:
             return event_trigger(ctable, idx, s, v, kappa, settings, conflicts=pc)
 
         def total():
-            prediction()
             event_trigger(ctable, idx, s, v, kappa, settings, conflicts=conflict_lookup(ctable, idx))
 
         r = risk()
@@ -80,7 +72,6 @@ def bench(net_file: Path, repeat: int, seed: int = 0) -> dict:
             "pairs": n * (n - 1) // 2,
             "conflicting_pairs": int(len(r.i)),
             "triggered_pairs": int(r.trigger.sum()),
-            "prediction": round(_median_ms(prediction, repeat), 4),
             "conflict_points": round(_median_ms(lookup, repeat), 4),
             "risk_trigger": round(_median_ms(risk, repeat), 4),
             "total": round(_median_ms(total, repeat), 4),
@@ -97,11 +88,11 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         net_file = args.net or build_network(Path(tmp))
         result = bench(net_file, args.repeat)
-    print(f"{'N':>4} {'pairs':>6} {'confl.':>6} {'trig.':>6} {'predict':>8} {'lookup':>8} {'risk':>8} {'total':>8}  [ms]")
+    print(f"{'N':>4} {'pairs':>6} {'confl.':>6} {'trig.':>6} {'lookup':>8} {'risk':>8} {'total':>8}  [ms]")
     for n in SIZES:
         r = result[str(n)]
         print(f"{n:>4} {r['pairs']:>6} {r['conflicting_pairs']:>6} {r['triggered_pairs']:>6} "
-              f"{r['prediction']:>8.3f} {r['conflict_points']:>8.3f} {r['risk_trigger']:>8.3f} {r['total']:>8.3f}")
+              f"{r['conflict_points']:>8.3f} {r['risk_trigger']:>8.3f} {r['total']:>8.3f}")
     print(json.dumps(result))
 
 

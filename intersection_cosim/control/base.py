@@ -69,11 +69,21 @@ class ControlContext:
 
 @dataclass(frozen=True)
 class Diagnostics:
-    """What a controller reports about a whole run (summary.json; None: not applicable)."""
+    """What a controller reports about a run, beyond its Decisions (written by experiments.run).
 
-    convergence: tuple = ()  # one record per game solve (control/game.py ConvergenceRecord)
-    safety_interventions: int | None = None  # accelerations the safety filter lowered
-    box_rule_clearances: int | None = None  # accelerations the filter raised to clear a crossing
+    ``convergence``: one record per game solved, in solve order, each with ``time`` [s],
+    ``vehicle_a``, ``vehicle_b``, ``solver``, ``status`` and ``residuals`` (one per iteration,
+    [m/s^2]): the rows of convergence.csv (the paper's Fig. 3). None for a controller that solves
+    no games (then the run has no convergence.csv); an empty tuple for one that solved none.
+    ``safety_interventions``: [-] commanded accelerations the safety filter lowered.
+    ``box_rule_clearances``: [-] accelerations the safety filter raised so a vehicle clears a
+    crossing it has entered (the box rule). Both None for a controller without that filter
+    (summary.json then records null).
+    """
+
+    convergence: tuple | None = None
+    safety_interventions: int | None = None
+    box_rule_clearances: int | None = None
 
 
 class Controller(Protocol):
@@ -95,5 +105,5 @@ class Controller(Protocol):
         ...
 
     def diagnostics(self) -> Diagnostics:
-        """The run's counters and per-game records so far."""
+        """What the controller has to report about the run so far (see :class:`Diagnostics`)."""
         ...

@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from intersection_cosim.control.base import ControlContext, Decisions, World
+from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
 from intersection_cosim.control.safety import krauss_safe_speed, stopping_acceleration
 from intersection_cosim.network.conflicts import (
     KIND_CONFLUENCE,
@@ -149,6 +149,10 @@ class FcfsController:
                                          context.model.vehicle_length)
         self._approach_lane = {pid: p.approach_lane for pid, p in self.paths.items()}
         self._point_key: dict = {}
+
+    def diagnostics(self) -> Diagnostics:
+        """Reservations are granted, not solved, and gaps come from the slots, not a filter."""
+        return Diagnostics()
 
     def _key(self, *parts) -> int:
         return self._point_key.setdefault(parts, len(self._point_key))

@@ -1,7 +1,10 @@
 """Registry of controllers by name: the only place that knows every controller.
 
-Each entry maps a name to a factory ``(scenario) -> Controller`` and the class of its settings,
-read from the scenario's ``[controller.<table>]`` sub-tables (None if it takes none).
+Each entry maps a name to a factory ``(settings, junction type) -> Controller`` and the class of
+its settings, read from the scenario's ``[controller.<table>]`` sub-tables (None if it takes
+none). The factory gets plain values, not a Scenario: the scenario layer sits above this one (it
+validates a scenario file's ``[controller]`` tables against :func:`names` and
+:func:`validate_tables`).
 """
 
 from __future__ import annotations
@@ -11,13 +14,18 @@ import typing
 from dataclasses import dataclass
 from typing import Any, Callable
 
+from intersection_cosim.control.base import Controller
+from intersection_cosim.control.fcfs import FcfsController, FcfsSettings
+from intersection_cosim.control.game import GameController
+from intersection_cosim.control.settings import GameControllerSettings
+from intersection_cosim.control.sumo_baseline import SumoController
 from intersection_cosim.errors import InputError
 from intersection_cosim.settings import from_table
 
 
 @dataclass(frozen=True)
 class Entry:
-    factory: Callable[[Any], Any]  # (Scenario) -> Controller
+    factory: Callable[[Any, str], Controller]  # (settings or None, junction type) -> Controller
     settings: type | None = None  # class of the controller's validated settings (None: takes none)
     description: str = ""
     table: str | None = None  # the one [controller.<table>] its settings come from; None: the
@@ -32,12 +40,10 @@ def register(name: str, entry: Entry) -> None:
 
 
 def names() -> list[str]:
-    _load_builtin()
     return sorted(_REGISTRY)
 
 
 def get(name: str) -> Entry:
-    _load_builtin()
     return _REGISTRY[name]
 
 
@@ -72,37 +78,26 @@ def _check_moved_keys(settings: type, tables: dict[str, dict], src: str) -> None
                 raise InputError(src, f"controller.{name}.{key}", value, f"moved to [controller.{home[0]}]")
 
 
-def create(scenario) -> Any:
-    return get(scenario.controller.kind).factory(scenario)
+def create(kind: str, settings: Any, junction_type: str) -> Controller:
+    """A new controller ``kind`` with its validated settings; ``junction_type`` is the
+    scenario's SUMO node type of the centre (used by the ``sumo`` controller)."""
+    return get(kind).factory(settings, junction_type)
 
 
-_loaded = False
-
-
-def _load_builtin() -> None:
-    global _loaded
-    if _loaded:
-        return
-    _loaded = True
-    from intersection_cosim.control.sumo_baseline import SumoController
-
-    register("sumo", Entry(lambda scn: SumoController(junction_type=scn.scenario.junction_type),
+def _register_builtin() -> None:
+    register("sumo", Entry(lambda settings, jtype: SumoController(junction_type=jtype),
                            None, "SUMO's own driver model and right of way"))
-    for name, jtype, what in (("sumo-priority", "priority", "priority junction (right of way by road priority)"),
+    for name, fixed, what in (("sumo-priority", "priority", "priority junction (right of way by road priority)"),
                               ("sumo-allway-stop", "allway_stop", "all-way stop"),
                               ("sumo-tls", "traffic_light", "traffic lights, SUMO's default signal programme")):
-        register(name, Entry(lambda scn, jtype=jtype: SumoController(junction_type=jtype),
+        register(name, Entry(lambda settings, jtype, fixed=fixed: SumoController(junction_type=fixed),
                              None, f"baseline: SUMO's driver model at a {what}"))
-
-    from intersection_cosim.control.game import GameController
-    from intersection_cosim.control.settings import GameControllerSettings
-
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
-        register(name, Entry(lambda scn, name=name: GameController(name, scn.controller_settings),
+        register(name, Entry(lambda settings, jtype, name=name: GameController(name, settings),
                              GameControllerSettings, f"the paper's differential game, {what} equilibrium"))
-
-    from intersection_cosim.control.fcfs import FcfsController, FcfsSettings
-
-    register("fcfs", Entry(lambda scn: FcfsController(scn.controller_settings), FcfsSettings,
+    register("fcfs", Entry(lambda settings, jtype: FcfsController(settings), FcfsSettings,
                            "first-come-first-served reservation of the conflict points (Dresner and Stone)",
                            table="solver"))
+
+
+_register_builtin()

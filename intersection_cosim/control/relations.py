@@ -20,6 +20,7 @@ from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflicts import (KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, ConflictTable,
                                                   point_zone)
+from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath
 
 
@@ -83,7 +84,7 @@ class Relations:
 
 def option_path(path_id: str, exit_lane: str) -> str:
     """The id of the path from the same approach lane with the same movement to ``exit_lane``."""
-    return f"{path_id.rsplit('_', 1)[0]}_{exit_lane}"
+    return str(PathId.parse(path_id).with_exit(exit_lane))
 
 
 def build_rows(world: World, active: set[int], paths: Mapping[str, MovementPath], table: ConflictTable,

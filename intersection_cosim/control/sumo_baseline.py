@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from intersection_cosim.control.base import ControlContext, Decisions, World
+from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
 
 
 @dataclass
@@ -24,3 +24,7 @@ class SumoController:
 
     def fallback(self, world: World) -> Decisions:
         return Decisions(fallback=True)
+
+    def diagnostics(self) -> Diagnostics:
+        """SUMO drives: no games, no safety filter."""
+        return Diagnostics()

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -30,8 +31,13 @@ import pandas as pd
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.files import SSM_THRESHOLDS
-from intersection_cosim.experiments.sweep import SweepOutcome, SweepSpec, check_out, make_spec, parse_controllers, \
-    run_sweep
+from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_spec, parse_controllers, run_sweep,
+                                                  sweep_jobs)
+from intersection_cosim.results.layout import RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
+from intersection_cosim.results.sumo_outputs import read_ssm
+from intersection_cosim.report.figures import metric_vs_demand
+from intersection_cosim.results.sweep_folder import SweepSpec
+from intersection_cosim.scenario import scenario_from_dict
 
 TABLE_FILE = "comparison.csv"
 REPORT_FILE = "report.md"
@@ -96,10 +102,6 @@ def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLE
 def demand_veh_h(spec: SweepSpec) -> float:
     """Total demand [veh/h] of the scenario's flows over its (possibly overridden) demand window,
     plus its hand-placed vehicles spread over that window."""
-    import tomllib
-
-    from intersection_cosim.scenario import scenario_from_dict
-
     scn = scenario_from_dict(tomllib.loads(spec.scenario_text), spec.scenario)
     duration = dict(spec.overrides).get("duration", scn.scenario.duration)
     vehicles = sum(f.rate / 3600.0 * max(0.0, min(f.end, duration) - max(f.begin, 0.0)) for f in scn.flows)
@@ -124,11 +126,9 @@ def _min(values: np.ndarray) -> float:
 
 def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
     """The comparison rows of one scenario's sweep folder (one per controller, over its seeds)."""
-    from intersection_cosim.report.sumo_outputs import read_ssm
-
     ttc_thr, _, pet_thr = SSM_THRESHOLDS
     rows = []
-    jobs = spec.jobs(out)
+    jobs = sweep_jobs(spec, out)
     for controller in spec.controllers:
         mine = [j for j in jobs if j.controller == controller and j.finished]
         veh, steps, ssm = [], [], []
@@ -136,18 +136,18 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         vehicles = arrived = collisions = late = 0
         for job in mine:
             run = Path(job.run_dir)
-            summary = json.loads((run / "summary.json").read_text())
+            summary = json.loads((run / RUN_MARKER).read_text())
             counts = summary.get("counts", {})
             duration = dict(spec.overrides).get("duration") or summary["settings"]["scenario"]["duration"]
             window += float(duration)
             vehicles += int(counts.get("vehicles") or 0)
             arrived += int(counts.get("arrived") or 0)
             collisions += int(counts.get("collisions") or 0)
-            va = pd.read_csv(run / "vehicles.csv", dtype={"vehicle": str})
+            va = pd.read_csv(run / VEHICLES_FILE, dtype={"vehicle": str})
             late += int((va["depart"].notna() & ~(va["arrival"] <= float(duration) + LATE_AFTER)).sum())
             veh.append(va)
-            steps.append(pd.read_csv(run / "steps.csv"))
-            ssm.append(read_ssm(run / "ssm.xml"))
+            steps.append(pd.read_csv(run / STEPS_FILE))
+            ssm.append(read_ssm(run / SSM_FILE))
         v = pd.concat(veh) if veh else pd.DataFrame(columns=["arrival", "travel_time", "time_loss"])
         v = v[v["arrival"].notna()] if len(v) else v
         st = pd.concat(steps) if steps else pd.DataFrame(columns=["compute_ms", "deadline_missed"])
@@ -208,8 +208,6 @@ def write_report(out: Path, table: pd.DataFrame, figures: list[Path]) -> Path:
 
 def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
     """comparison.csv, report.md and the figures from the sweep folders under ``out``."""
-    from intersection_cosim.report.figures import metric_vs_demand
-
     rows = []
     for spec in specs:
         rows += aggregate(spec, out / spec.scenario_name, demand_veh_h(spec))

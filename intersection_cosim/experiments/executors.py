@@ -34,12 +34,16 @@ import subprocess
 import sys
 import threading
 import time
+import tomllib
 import traceback
 from concurrent.futures import Executor, ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterator
 
 from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.results.layout import is_finished_run
+from intersection_cosim.scenario import scenario_from_dict, with_overrides
 
 CONNECT_TIMEOUT = "10s"  # to the Dask scheduler
 OUTPUT_TAIL = 4000  # [chars] of a dead child's output (stdout and stderr) kept in its failure record
@@ -72,9 +76,7 @@ class Job:
 
     @property
     def finished(self) -> bool:
-        from intersection_cosim.experiments.run import RUN_MARKER
-
-        return (Path(self.run_dir) / RUN_MARKER).is_file()
+        return is_finished_run(self.run_dir)
 
 
 # Fields a sweep may override for all its runs (``compare --duration``, ``--budget-ms``), with
@@ -84,10 +86,6 @@ OVERRIDE_TABLES = {"duration": "scenario", "budget_ms": "controller"}
 
 def job_scenario(job: Job):
     """The job's scenario: the file with the controller, seed, kappa and [scenario] overrides applied."""
-    import tomllib
-
-    from intersection_cosim.scenario import scenario_from_dict, with_overrides
-
     scn = scenario_from_dict(tomllib.loads(job.scenario_text), job.scenario)
     scn = with_overrides(scn, controller=job.controller, seed=job.seed)
     for name, value in job.overrides:
@@ -100,8 +98,6 @@ def job_scenario(job: Job):
 
 def run_job(job: Job) -> dict:
     """Run ``job`` in this process (which must not have run a simulation before); return its summary."""
-    from intersection_cosim.experiments.run import run_scenario
-
     summary = run_scenario(job_scenario(job), Path(job.run_dir))
     with contextlib.suppress(FileNotFoundError):
         os.remove(job.failed_file)  # a retry that succeeded clears the earlier failure

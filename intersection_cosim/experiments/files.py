@@ -6,7 +6,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from intersection_cosim.network.paths import MovementPath
-from intersection_cosim.network.spec import LANE_INDEX
+from intersection_cosim.network.spec import LANE_INDEX, exit_arm
 from intersection_cosim.scenario.model import Scenario
 
 ROUTE_FILE = "scenario.rou.xml"
@@ -41,9 +41,7 @@ def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow
             attrs["arrivalLane"] = str(LANE_INDEX[v.exit_lane])
         entries.append((v.depart, v.id, attrs, f"{p.approach}_in {p.exit_arm}_out"))
     for fv in flow_vehicles:
-        from intersection_cosim.network.spec import exit_arm
-
-        approach_len = paths[next(pid for pid in paths if pid.startswith(f"{fv['approach']}_"))].lane_starts[1]
+        approach_len = next(p for p in paths.values() if p.approach == fv["approach"]).lane_starts[1]
         pos = 0.0 if fv["distance"] is None else max(0.0, approach_len - fv["distance"])
         attrs = {"id": fv["id"], "type": "av", "depart": f"{fv['depart']:.2f}",
                  "departLane": str(LANE_INDEX[fv["lane"]]), "departPos": f"{pos:.2f}",

@@ -20,26 +20,26 @@ import pandas as pd
 
 from intersection_cosim import __version__
 from intersection_cosim.control import registry
-from intersection_cosim.control.base import ControlContext, Diagnostics
+from intersection_cosim.control.base import ControlContext
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.files import ROUTE_FILE, SUMOCFG_FILE, write_routes, write_sumocfg
 from intersection_cosim.network.build import NET_FILE
-from intersection_cosim.network.cache import cached_net
+from intersection_cosim.network.cache import cached_net, sumo_version
+from intersection_cosim.network.conflicts import load_conflicts
+from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import load_paths
 from intersection_cosim.network.spec import IntersectionSpec
-from intersection_cosim.report.metrics import pair_table, vehicle_table
-from intersection_cosim.report.sumo_outputs import read_collisions, read_ssm, read_tripinfo
+from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, PAIRS_FILE,
+                                               RUN_MARKER, SSM_FILE, STEP_COLUMNS, STEPS_FILE, TRAJECTORIES_FILE,
+                                               TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE)
+from intersection_cosim.results.metrics import pair_table, vehicle_table
+from intersection_cosim.results.sumo_outputs import read_collisions, read_ssm, read_tripinfo
 from intersection_cosim.scenario.load import default_exit_lane, generate_flow_vehicles
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
 
 log = logging.getLogger(__name__)
 
-TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
-                      "accel_cmd"]
-CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
-STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves"]
-RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
 
 
 def prepare_output(out: Path) -> Path:
@@ -74,8 +74,6 @@ def _versions() -> dict[str, str]:
     import osqp
     import scipy
 
-    from intersection_cosim.network.cache import sumo_version
-
     return {"intersection_cosim": __version__, "sumo": sumo_version(), "python": platform.python_version(),
             "numpy": np.__version__, "scipy": scipy.__version__, "pandas": pd.__version__,
             "osqp": getattr(osqp, "__version__", "unknown")}
@@ -101,12 +99,13 @@ def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None) -> dict:
 
 
 def _run_into(scn: Scenario, folder: Path) -> dict:
-    from intersection_cosim.network.conflicts import load_conflicts
+    # The simulator layer (libsumo) is loaded only by the process that runs a simulation, not by
+    # a sweep's supervising process, which imports this module through experiments.executors.
     from intersection_cosim.sim.scheduler import StepScheduler
     from intersection_cosim.sim.sumo import SumoSimulation, VehicleInfo
 
     s = scn.scenario
-    controller = registry.create(scn)
+    controller = registry.create(scn.controller.kind, scn.controller_settings, s.junction_type)
     net = cached_net(IntersectionSpec(junction_type=controller.junction_type))
     shutil.copyfile(net, folder / NET_FILE)
     paths = load_paths(net)
@@ -122,7 +121,7 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                                   exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
                                   start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
     for fv in flow_vehicles:
-        pid = f"{fv['approach']}_{fv['lane']}_{fv['movement']}_{default_exit_lane(fv['lane'], fv['movement'])}"
+        pid = str(PathId(fv["approach"], fv["lane"], fv["movement"], default_exit_lane(fv["lane"], fv["movement"])))
         infos[fv["id"]] = VehicleInfo(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
                                       kappa=fv["kappa"], intended_path=pid,
                                       controlled=controller.controls_vehicles)
@@ -168,26 +167,24 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
 
     traj = pd.DataFrame(traj_rows, columns=TRAJECTORY_COLUMNS)
     steps = pd.DataFrame(step_rows, columns=STEP_COLUMNS)
-    tripinfo = read_tripinfo(folder / "tripinfo.xml")
-    ssm = read_ssm(folder / "ssm.xml")
-    collisions = read_collisions(folder / "collisions.xml")
+    tripinfo = read_tripinfo(folder / TRIPINFO_FILE)
+    ssm = read_ssm(folder / SSM_FILE)
+    collisions = read_collisions(folder / COLLISIONS_FILE)
     vehicles = vehicle_table(infos, tripinfo, exit_lanes, collisions)
     pairs = pair_table(traj, final_paths, paths, load_conflicts(net, scn.model.vehicle_width), scn.model,
                        ssm, game_steps)
 
-    traj.to_csv(folder / "trajectories.csv", index=False, float_format="%.4f")
-    records = getattr(controller, "convergence", None)
-    if records is not None:
+    traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
+    diagnostics = controller.diagnostics()
+    if diagnostics.convergence is not None:
         rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
-                for r in records for m, res in enumerate(r.residuals)]
-        pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / "convergence.csv", index=False,
+                for r in diagnostics.convergence for m, res in enumerate(r.residuals)]
+        pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / CONVERGENCE_FILE, index=False,
                                                                float_format="%.6g")
-    steps.to_csv(folder / "steps.csv", index=False, float_format="%.4f")
-    vehicles.to_csv(folder / "vehicles.csv", index=False, float_format="%.4f")
-    pairs.to_csv(folder / "pairs.csv", index=False, float_format="%.4f")
+    steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
+    vehicles.to_csv(folder / VEHICLES_FILE, index=False, float_format="%.4f")
+    pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
 
-    # until every controller implements Controller.diagnostics
-    diagnostics = controller.diagnostics() if hasattr(controller, "diagnostics") else Diagnostics()
     summary = {
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
         "settings": {"scenario": to_dict(s), "controller": to_dict(scn.controller), "model": to_dict(scn.model),

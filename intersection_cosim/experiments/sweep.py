@@ -1,11 +1,9 @@
 """Sweeps: every combination of per-vehicle kappa values, controllers and seeds, one run each.
 
-A sweep folder holds::
-
-    sweep.json          the sweep's spec (scenario, grid, controllers, seeds): the axes of `report`
-    sweep.csv           one row per finished or failed run, rebuilt from the run folders
-    runs/<run id>/      one run folder each (see experiments/run.py), written atomically
-    failed/<run id>.json  the error of a run that failed (removed when a retry succeeds)
+A sweep folder holds ``sweep.json`` (the spec), ``sweep.csv`` (the table), ``runs/<run id>/``
+(one run folder each, written atomically by experiments/run.py) and ``failed/<run id>.json`` (the
+error of a run that failed, removed when a retry succeeds); see ``results.layout`` and
+``results.sweep_folder``.
 
 Run ids are stable, e.g. ``sumo-seed1-V1_0.30-V2_0.50``, so a rerun of the same command skips the
 finished runs (and retries failed ones). ``sweep.csv`` is rebuilt from the run folders at the end
@@ -21,7 +19,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
-import itertools
 import json
 import math
 import os
@@ -32,21 +29,18 @@ import time
 from concurrent.futures import as_completed
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
+from intersection_cosim.control import registry
 from intersection_cosim.errors import InputError
-from intersection_cosim.experiments.executors import Job, execute_job, open_executor, stop_children, write_failure
+from intersection_cosim.experiments.executors import (OVERRIDE_TABLES, Job, execute_job, open_executor, stop_children,
+                                                      write_failure)
+from intersection_cosim.results.layout import FAILED_DIR, RUNS_DIR, SPEC_FILE, TABLE_FILE, failure_file, run_folder
+from intersection_cosim.results.sweep_folder import DECIMALS, SweepSpec, load_spec, safe_name, sweep_table
+from intersection_cosim.scenario import load_scenario
 
-SPEC_FILE = "sweep.json"
-TABLE_FILE = "sweep.csv"
-RUNS_DIR = "runs"
-FAILED_DIR = "failed"
 LOCK_FILE = ".sweep.lock"
 MAX_VALUES = 10_000  # [-] values one --kappa spec may expand to
-DECIMALS = 6  # kappa values are rounded to this many decimals
-# Columns that depend on the wall clock, not on the simulation (differ between identical runs).
-WALL_CLOCK_COLUMNS = ("compute_ms_median", "compute_ms_p95", "deadline_misses", "fallbacks")
 
 
 # --- spec parsing ------------------------------------------------------------------------------
@@ -135,8 +129,6 @@ def parse_seeds(text: str) -> tuple[int, ...]:
 
 
 def parse_controllers(text: str) -> tuple[str, ...]:
-    from intersection_cosim.control import registry
-
     kinds = [k.strip() for k in text.split(",")]
     known = registry.names()
     for k in kinds:
@@ -150,79 +142,6 @@ def parse_controllers(text: str) -> tuple[str, ...]:
 
 # --- the sweep's spec and its jobs -------------------------------------------------------------
 
-def format_kappa(value: float) -> str:
-    """0.3 -> ``0.30``, 0.125 -> ``0.125``: at least two decimals, no trailing noise."""
-    whole, _, frac = f"{value:.{DECIMALS}f}".rstrip("0").partition(".")
-    return f"{whole}.{frac.ljust(2, '0')}"
-
-
-def _safe(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9.]+", "_", name)
-
-
-@dataclasses.dataclass(frozen=True)
-class SweepSpec:
-    """What a sweep runs: stored as ``sweep.json`` so a rerun and ``report`` know the axes."""
-
-    scenario: str  # absolute path of the scenario file
-    scenario_sha256: str  # of the file's bytes: a rerun on an edited file is refused
-    scenario_name: str
-    vehicles: tuple[str, ...]  # ids of the scenario's hand-placed vehicles (per-vehicle columns)
-    kappa: tuple[tuple[str, tuple[float, ...]], ...]  # swept vehicles and their values, in axis order
-    controllers: tuple[str, ...]
-    seeds: tuple[int, ...]
-    scenario_text: str = dataclasses.field(default="", compare=False, repr=False)  # what the runs run
-    overrides: tuple[tuple[str, float], ...] = ()  # [scenario] / [controller] field overrides of every run (executors.py)
-
-    @property
-    def axes(self) -> list[str]:
-        """The kappa columns of sweep.csv, one per swept vehicle."""
-        return [f"kappa_{vid}" for vid, _ in self.kappa]
-
-    @property
-    def total(self) -> int:
-        return len(self.controllers) * len(self.seeds) * math.prod(len(v) for _, v in self.kappa)
-
-    def grid(self):
-        """(controller, seed, ((vehicle, kappa), ...)) for every run, in the order of sweep.csv."""
-        vids = [vid for vid, _ in self.kappa]
-        for controller in self.controllers:
-            for seed in self.seeds:
-                for combo in itertools.product(*(values for _, values in self.kappa)):
-                    yield controller, seed, tuple(zip(vids, combo, strict=True))
-
-    @staticmethod
-    def run_id(controller: str, seed: int, kappa: tuple[tuple[str, float], ...]) -> str:
-        return f"{controller}-seed{seed}" + "".join(f"-{_safe(v)}_{format_kappa(k)}" for v, k in kappa)
-
-    def jobs(self, out: Path, scenario_text: str = "") -> list[Job]:
-        """The runs, in grid order; ``scenario_text`` is the scenario file's text they run."""
-        out = Path(out).resolve()
-        return [Job(run_id=(rid := self.run_id(c, s, k)), scenario=self.scenario, scenario_text=scenario_text,
-                    controller=c, seed=s, kappa=k, run_dir=str(out / RUNS_DIR / rid),
-                    failed_file=str(out / FAILED_DIR / f"{rid}.json"), overrides=self.overrides)
-                for c, s, k in self.grid()]
-
-    def identity(self) -> tuple:
-        """What must match for a rerun to continue a sweep (the file may have moved)."""
-        return (self.scenario_sha256, self.vehicles, self.kappa, self.controllers, self.seeds, self.overrides)
-
-    def to_dict(self) -> dict:
-        return {"scenario": self.scenario, "scenario_sha256": self.scenario_sha256,
-                "scenario_name": self.scenario_name, "vehicles": list(self.vehicles),
-                "kappa": {vid: list(values) for vid, values in self.kappa},
-                "controllers": list(self.controllers), "seeds": list(self.seeds), "runs": self.total,
-                **({"overrides": dict(self.overrides)} if self.overrides else {})}
-
-    @classmethod
-    def from_dict(cls, d: dict) -> "SweepSpec":
-        return cls(scenario=d["scenario"], scenario_sha256=d["scenario_sha256"], scenario_name=d["scenario_name"],
-                   vehicles=tuple(d["vehicles"]),
-                   kappa=tuple((vid, tuple(float(x) for x in vals)) for vid, vals in d["kappa"].items()),
-                   controllers=tuple(d["controllers"]), seeds=tuple(int(s) for s in d["seeds"]),
-                   overrides=tuple((str(f), float(x)) for f, x in d.get("overrides", {}).items()))
-
-
 def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers: str | None = None,
               seeds: str | None = None, overrides: dict[str, float] | None = None) -> SweepSpec:
     """Validate the command line's sweep spec against the scenario; raise InputError before any run.
@@ -230,16 +149,12 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
     ``overrides``: [scenario] / [controller] fields set for every run (``executors.OVERRIDE_TABLES``), e.g.
     ``{"duration": 60.0, "budget_ms": 20.0}``; part of the sweep's identity.
     """
-    from intersection_cosim.experiments.executors import OVERRIDE_TABLES
-
-    from intersection_cosim.scenario import load_scenario
-
     path = Path(scenario)
     scn = load_scenario(path)
     text = path.read_text()  # load_scenario has checked it is readable UTF-8
     vids = [v.id for v in scn.vehicles]
     grid = parse_kappa(kappa, vids)
-    safe = [_safe(v) for v in grid]
+    safe = [safe_name(v) for v in grid]
     if len(set(safe)) != len(safe):
         raise InputError("--kappa", "kappa", ", ".join(grid), "vehicle ids collide in run folder names")
     kinds = parse_controllers(controllers) if controllers else (scn.controller.kind,)
@@ -256,8 +171,14 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
                      controllers=kinds, seeds=seed_list, scenario_text=text, overrides=tuple(fixed))
 
 
-def load_spec(out: str | Path) -> SweepSpec:
-    return SweepSpec.from_dict(json.loads((Path(out) / SPEC_FILE).read_text()))
+def sweep_jobs(spec: SweepSpec, out: str | Path, scenario_text: str = "") -> list[Job]:
+    """The runs of ``spec`` in the sweep folder ``out``, in grid order; ``scenario_text`` is the
+    scenario file's text they run."""
+    out = Path(out).resolve()
+    return [Job(run_id=(rid := spec.run_id(c, s, k)), scenario=spec.scenario, scenario_text=scenario_text,
+                controller=c, seed=s, kappa=k, run_dir=str(run_folder(out, rid)),
+                failed_file=str(failure_file(out, rid)), overrides=spec.overrides)
+            for c, s, k in spec.grid()]
 
 
 def check_out(spec: SweepSpec, out: Path) -> None:
@@ -361,7 +282,7 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None, d
             _write_atomic(out / SPEC_FILE, json.dumps(spec.to_dict(), indent=2) + "\n")
             _clean_leftovers(out)
             (out / RUNS_DIR).mkdir(exist_ok=True)
-            jobs = spec.jobs(out, spec.scenario_text)
+            jobs = sweep_jobs(spec, out, spec.scenario_text)
             todo = [j for j in jobs if not j.finished]
             skipped = len(jobs) - len(todo)
             bar = tqdm(total=len(jobs), initial=skipped, unit="run", desc=spec.scenario_name, file=sys.stderr,
@@ -401,83 +322,6 @@ def _outcome(out: Path, spec: SweepSpec, table: pd.DataFrame, skipped: int, t0: 
 
 
 # --- sweep.csv ---------------------------------------------------------------------------------
-
-PAIR_METRICS = (("min_ttc", "min_ttc"), ("min_ttc_ssm", "min_ttc_ssm"), ("pet", "pet_ssm"))  # (column, pairs.csv)
-COUNT_COLUMNS = ("collisions", "arrived", "vehicles")
-TIMING_COLUMNS = ("compute_ms_median", "compute_ms_p95", "deadline_misses", "fallbacks")
-
-
-def _pair_key(a: str, b: str) -> str:
-    return f"{a}_{b}"
-
-
-def run_metrics(run_dir: Path, vehicles: tuple[str, ...] | None = None) -> dict:
-    """Headline metrics of one finished run: per hand-placed vehicle, per pair of them, overall.
-
-    ``vehicles``: the vehicles that get their own columns (default: every vehicle of the run).
-    """
-    run_dir = Path(run_dir)
-    summary = json.loads((run_dir / "summary.json").read_text())
-    veh = pd.read_csv(run_dir / "vehicles.csv", dtype={"vehicle": str})
-    pairs = pd.read_csv(run_dir / "pairs.csv", dtype={"vehicle_a": str, "vehicle_b": str})
-    chosen = set(veh["vehicle"] if vehicles is None else vehicles)
-    m: dict = {}
-    tt = veh.set_index("vehicle")["travel_time"]
-    for vid in (list(veh["vehicle"]) if vehicles is None else vehicles):
-        m[f"travel_time_{vid}"] = float(tt[vid]) if vid in tt.index else np.nan
-    metrics = dict(summary.get("metrics", {}))
-    counts = summary.get("counts", {})
-    m["mean_travel_time"] = metrics.pop("mean_travel_time", None)
-    for _, row in pairs.iterrows():
-        a, b = sorted((row["vehicle_a"], row["vehicle_b"]))
-        if a in chosen and b in chosen:
-            for col, src in PAIR_METRICS:
-                m[f"{col}_{_pair_key(a, b)}"] = row[src]
-    m["min_ttc"] = metrics.pop("min_ttc", None)
-    m["min_ttc_ssm"] = metrics.pop("min_ttc_ssm", None)
-    m["min_pet"] = float(pairs["pet_ssm"].min()) if len(pairs) and pairs["pet_ssm"].notna().any() else np.nan
-    for key in COUNT_COLUMNS:
-        m[key] = counts.get(key)
-    m["compute_ms_median"] = metrics.pop("compute_ms_median", None)
-    m["compute_ms_p95"] = metrics.pop("compute_ms_p95", None)
-    m["deadline_misses"] = counts.get("deadline_misses")
-    m["fallbacks"] = counts.get("fallbacks")
-    for key, value in sorted(metrics.items()):  # metrics added to summary.json later get columns too
-        if isinstance(value, (int, float)) or value is None:
-            m[key] = value
-    return {k: (np.nan if v is None else v) for k, v in m.items()}
-
-
-def sweep_table(out: str | Path, spec: SweepSpec | None = None) -> pd.DataFrame:
-    """sweep.csv's table, built from the run folders and failure records (grid order)."""
-    out = Path(out)
-    spec = spec or load_spec(out)
-    rows = []
-    for (controller, seed, kappa), job in zip(spec.grid(), spec.jobs(out), strict=True):
-        row = {"run_id": job.run_id, "controller": controller, "seed": seed}
-        row.update({f"kappa_{vid}": k for vid, k in kappa})
-        if job.finished:
-            row.update(run_metrics(Path(job.run_dir), spec.vehicles))
-            row.update(status="ok", error="")
-        elif Path(job.failed_file).is_file():
-            try:
-                error = json.loads(Path(job.failed_file).read_text()).get("error", "")
-            except ValueError:
-                error = "unreadable failure record"
-            row.update(status="failed", error=error)
-        else:
-            continue
-        rows.append(row)
-    params = ["run_id", "controller", "seed", *spec.axes]
-    seen = list(dict.fromkeys(k for r in rows for k in r))
-    pair_keys = sorted({c[len("min_ttc_ssm_"):] for c in seen if c.startswith("min_ttc_ssm_")})
-    fixed = (params + [f"travel_time_{v}" for v in spec.vehicles] + ["mean_travel_time"]
-             + [f"{col}_{key}" for key in pair_keys for col, _ in PAIR_METRICS]
-             + ["min_ttc", "min_ttc_ssm", "min_pet", *COUNT_COLUMNS, *TIMING_COLUMNS])
-    extras = [c for c in seen if c not in fixed and c not in ("status", "error")]
-    columns = fixed + extras + ["status", "error"]
-    return pd.DataFrame(rows, columns=columns)
-
 
 def write_table(out: str | Path, spec: SweepSpec | None = None) -> pd.DataFrame:
     """Rebuild sweep.csv atomically; return the table."""

@@ -59,7 +59,7 @@ def failure_result(problem: Problem, gs: GameSettings, solver: str, t0: float, m
                       "solver failure", solver, time.perf_counter() - t0, leader, message)
 
 
-def _warm_list(warm_start: WarmStart, n: int) -> list:
+def warm_list(warm_start: WarmStart, n: int) -> list:
     if warm_start is None:
         return [None] * n
     if isinstance(warm_start, GameResult):
@@ -68,7 +68,7 @@ def _warm_list(warm_start: WarmStart, n: int) -> list:
     return out + [None] * (n - len(out))
 
 
-class _Game:
+class EquilibriumSolve:
     """Shared state of one equilibrium solve: objectives, plans, workspaces, counters."""
 
     def __init__(self, problem: Problem, gs: GameSettings, ms: ModelSettings, tag: str):
@@ -158,7 +158,7 @@ class _Game:
         return out
 
 
-def _iterate(game: _Game, plans: list[Plan], deadline: float | None, max_iter: int,
+def _iterate(game: EquilibriumSolve, plans: list[Plan], deadline: float | None, max_iter: int,
              record_costs: bool = False):
     """Best-response iteration from ``plans``; returns (plans, residuals, history, status)."""
     gs = game.gs
@@ -207,8 +207,8 @@ def nash_equilibrium(problem: Problem, settings: GameSettings | None = None,
     t0 = time.perf_counter()
     game = None
     try:
-        game = _Game(problem, gs, ms, "nash")
-        warm = _warm_list(warm_start, game.n)
+        game = EquilibriumSolve(problem, gs, ms, "nash")
+        warm = warm_list(warm_start, game.n)
         cold = all(w is None for w in warm)
         if deadline is not None and time.perf_counter() >= deadline:
             plans = [game.warm_plan(p, warm[p]) if warm[p] is not None
@@ -245,7 +245,7 @@ def nash_equilibrium(problem: Problem, settings: GameSettings | None = None,
                               game.qp_count if game else 0)
 
 
-def _order_starts(game: _Game) -> list[list[Plan]]:
+def _order_starts(game: EquilibriumSolve) -> list[list[Plan]]:
     """Cold starts in which one player of a lateral conflict passes first: it keeps full
     acceleration and every partner of its lateral interactions brakes comfortably."""
     gs = game.gs
@@ -270,7 +270,7 @@ def _order_starts(game: _Game) -> list[list[Plan]]:
     return starts
 
 
-def _finish(game: _Game, plans, residuals, status, t0, history, known: bool = False) -> GameResult:
+def _finish(game: EquilibriumSolve, plans, residuals, status, t0, history, known: bool = False) -> GameResult:
     costs = game.costs(plans, known)
     if not (np.all(np.isfinite(costs)) and all(np.all(np.isfinite(p.positions)) for p in plans)):
         raise SolverFailure("non-finite plan or cost")

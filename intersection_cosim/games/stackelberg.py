@@ -46,7 +46,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 from intersection_cosim.games.sqp import SolverFailure, sqp_best_response
-from intersection_cosim.games.nash import WarmStart, _Game, _warm_list, failure_result, nash_equilibrium
+from intersection_cosim.games.nash import WarmStart, EquilibriumSolve, warm_list, failure_result, nash_equilibrium
 from intersection_cosim.games.problem import GameResult, Plan, Problem
 from intersection_cosim.games.qp import workspace
 from intersection_cosim.games.settings import GameSettings
@@ -198,8 +198,8 @@ def stackelberg_equilibrium(problem: Problem, settings: GameSettings | None = No
     F = 1 - L
     game = None
     try:
-        game = _Game(problem, gs, ms, "stackelberg")
-        warm = _warm_list(warm_start, 2)
+        game = EquilibriumSolve(problem, gs, ms, "stackelberg")
+        warm = warm_list(warm_start, 2)
         c_nash = None
         nash_plans = None
         if any(w is None for w in warm):
@@ -233,7 +233,7 @@ def stackelberg_equilibrium(problem: Problem, settings: GameSettings | None = No
                               game.qp_count if game else 0, L)
 
 
-def _leader_iteration(game: _Game, plans: list[Plan], L: int, F: int, deadline, warm: bool,
+def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int, deadline, warm: bool,
                       f_cost0: float | None = None):
     """The leader's iteration (module docstring); returns (plans, residuals, status, known
     costs of the final plans, None where not evaluated)."""

@@ -31,8 +31,11 @@ class ModelSettings:
     # smallest). At 4 s every Case 1 and 2 ordering holds with k_lat = 5 (3.5 s: B > A fails;
     # 4.5 s: V1 is no faster in C under Nash; 5 s: Case 2 A's V3 keeps the inner exit)
     t_p: float = 4.0
-    prediction_dt: float = 0.1  # [s] sample step of the model-based prediction over t_p
-    prediction_degree: int = 3  # [-] degree of the polynomial fitted to a free prediction (Sec. III-C)
+    # The prediction is along the paths (models/prediction.py), in closed form: no sampled rollout
+    # or polynomial fit reads these two. They stay so scenario files that set them still load and
+    # summary.json keeps its fields.
+    prediction_dt: float = 0.1  # [s] sample step of a sampled prediction over t_p (unused)
+    prediction_degree: int = 3  # [-] degree of a polynomial fit of a free prediction (Sec. III-C; unused)
     # [rad] below this |delta_f| the straight-line field form is used. The curved form is exact in
     # double precision far below this; the switch only avoids R = l / tan(0). At 1e-6 rad the two
     # forms agree to 1e-3 relative over a 42 m preview (14 m/s * 3 s); at 1e-3 they differ by 10 %.
@@ -63,7 +66,10 @@ class ModelSettings:
     conflict_clearance: float = 4.5  # [m] past the conflict point by this, a vehicle has passed it
 
     # --- roles ---
-    conflict_zone_half: float = 12.0  # [m] the conflict zone is |x|, |y| <= this (Section II)
+    # [m] the conflict zone is |x|, |y| <= this (Section II). Unused: the simulator layer gives each
+    # vehicle its role from its SUMO lane (sim/sumo.py: junction-internal = passing, approach =
+    # ready, exit = outside); kept so scenario files that set it still load and summary.json keeps it.
+    conflict_zone_half: float = 12.0
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "vehicle_length", "vehicle_width", "l_f", "l_r", "a0", "t_p",

@@ -40,7 +40,7 @@ Outside the junction, paths on different lanes run 4 m apart, so only the juncti
 ``[s_stop, s_exit]`` (plus one resampling step either side) is searched for rules 2 and 3.
 
 :class:`ConflictTable` packs the result into ``(P, P)`` numpy arrays indexed by integer path
-indices, which is what the run-time code (risk, roles, ETM) uses: looking up the conflict points of
+indices, which is what the run-time code (risk, ETM, controllers) uses: looking up the conflict points of
 all vehicle pairs is one fancy-indexing operation.
 
 Pure data; reads the net only through :func:`~intersection_cosim.network.paths.load_paths`.
@@ -209,7 +209,7 @@ def load_conflicts(net_file: str | FsPath, vehicle_width: float = 1.8) -> dict[t
 def _body_points(path: MovementPath, s_front: np.ndarray, length: float, width: float,
                  outline: bool) -> np.ndarray:
     """[m] (S, B, 2) points of the body rectangle (``length`` x ``width``, heading of the path at
-    the front bumper, as :func:`report.metrics.body_overlaps` places it) for each front arc
+    the front bumper, as :func:`results.metrics.body_overlaps` places it) for each front arc
     length in ``s_front``: its outline, or a grid over its whole area, ``_ZONE_STEP`` apart."""
     along = np.linspace(-length, 0.0, int(np.ceil(length / _ZONE_STEP)) + 1)
     across = np.linspace(-width / 2, width / 2, int(np.ceil(width / _ZONE_STEP)) + 1)

@@ -20,6 +20,7 @@ import sumolib
 from scipy.ndimage import gaussian_filter1d
 from sumolib import geomhelper
 
+from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.spec import ARMS, LANE_INDEX, LANE_NAME, LANE_USE, exit_arm
 
 RESAMPLE_STEP = 0.25  # [m] arc-length spacing of the resampled centre line
@@ -30,7 +31,7 @@ CURVATURE_SMOOTHING = 1.0  # [m] Gaussian width applied to the heading before di
 class MovementPath:
     """One approach-lane -> exit-lane path. Lengths in metres, angles in radians."""
 
-    id: str  # "<approach>_<lane>_<movement>_<exit lane>", e.g. "south_inner_left_middle"
+    id: str  # str(PathId), e.g. "south_inner_left_middle" (see network/path_id.py)
     approach: str
     lane: str
     movement: str
@@ -154,7 +155,7 @@ def load_paths(net_file: str | FsPath) -> dict[str, MovementPath]:
                     scale = s[-1] / total
                     starts = [st * scale for st in starts]
                     heading, curvature = _heading_curvature(s, xy)
-                    pid = f"{approach}_{lane}_{movement}_{exit_lane}"
+                    pid = str(PathId(approach, lane, movement, exit_lane))
                     paths[pid] = MovementPath(
                         id=pid, approach=approach, lane=lane, movement=movement, exit_arm=arm,
                         exit_lane=exit_lane, lanes=tuple(ln.getID() for ln in lanes),

@@ -23,6 +23,9 @@ import pandas as pd
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.report import figures as fig
+from intersection_cosim.results.layout import (PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE, VEHICLES_FILE,
+                                               run_folder)
+from intersection_cosim.results.sweep_folder import load_spec, sweep_table
 
 REPORT_FILE = "report.md"
 FIGURES_DIR = "figures"
@@ -38,9 +41,6 @@ MAX_TABLE_ROWS = 500
 
 def write_report(folder: str | Path) -> Path:
     """Write the report of a run or a sweep folder; return the path of ``report.md``."""
-    from intersection_cosim.experiments.run import RUN_MARKER
-    from intersection_cosim.experiments.sweep import SPEC_FILE
-
     folder = Path(folder)
     if (folder / SPEC_FILE).is_file():
         return sweep_report(folder)
@@ -118,7 +118,7 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
             out.append((f"{fig.metric_label(metric)} against {axis}", str(png.relative_to(folder))))
     samples: dict[str, list[np.ndarray]] = {}
     for _, row in ok.iterrows():
-        steps = folder / "runs" / row["run_id"] / "steps.csv"
+        steps = run_folder(folder, row["run_id"]) / STEPS_FILE
         if steps.is_file():
             samples.setdefault(row["controller"], []).append(pd.read_csv(steps, usecols=["compute_ms"])["compute_ms"]
                                                              .to_numpy(float))
@@ -134,15 +134,13 @@ def _budget(folder: Path, ok: pd.DataFrame) -> float | None:
     if ok.empty:
         return None
     try:
-        summary = json.loads((folder / "runs" / ok["run_id"].iloc[0] / "summary.json").read_text())
+        summary = json.loads((run_folder(folder, ok["run_id"].iloc[0]) / RUN_MARKER).read_text())
         return float(summary["settings"]["controller"]["budget_ms"])
     except (OSError, KeyError, TypeError, ValueError):
         return None
 
 
 def sweep_report(folder: Path) -> Path:
-    from intersection_cosim.experiments.sweep import TABLE_FILE, load_spec, sweep_table
-
     folder = Path(folder)
     spec = load_spec(folder)
     table = sweep_table(folder, spec)
@@ -190,13 +188,13 @@ def sweep_report(folder: Path) -> Path:
 
 def run_report(folder: Path) -> Path:
     folder = Path(folder)
-    summary = json.loads((folder / "summary.json").read_text())
+    summary = json.loads((folder / RUN_MARKER).read_text())
     figs = _fresh_figures(folder)
     title = f"{summary.get('scenario', folder.name)}, {summary.get('controller', '')}, seed {summary.get('seed', '')}"
     figures = [("trajectories (points every 0.5 s)", fig.trajectory_figure(folder, figs / "trajectory.png",
                                                                           f"Trajectories: {title}")),
                ("velocity", fig.velocity_figure(folder, figs / "velocity.png", f"Velocity: {title}"))]
-    steps = pd.read_csv(folder / "steps.csv", usecols=["compute_ms"])["compute_ms"].to_numpy(float)
+    steps = pd.read_csv(folder / STEPS_FILE, usecols=["compute_ms"])["compute_ms"].to_numpy(float)
     budget = summary.get("settings", {}).get("controller", {}).get("budget_ms")
     figures.append(("compute time per control step",
                     fig.compute_time_histogram({summary.get("controller", "controller"): steps},
@@ -206,7 +204,7 @@ def run_report(folder: Path) -> Path:
     lines = [f"# Run report: {title}", "", f"- folder: `{folder}`",
              f"- versions: {', '.join(f'{k} {v}' for k, v in summary.get('versions', {}).items())}", "",
              "## Summary", "", markdown_table(counts), "", markdown_table(metrics), ""]
-    for name, caption in (("vehicles.csv", "Vehicles"), ("pairs.csv", "Conflicting pairs")):
+    for name, caption in ((VEHICLES_FILE, "Vehicles"), (PAIRS_FILE, "Conflicting pairs")):
         if (folder / name).is_file():
             lines += [f"## {caption}", "", markdown_table(pd.read_csv(folder / name, dtype={"vehicle": str})), ""]
     lines += ["## Figures", ""]

@@ -6,6 +6,7 @@ written anywhere while loading (the net used for placement comes from the per-us
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 from pathlib import Path
@@ -13,9 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from intersection_cosim.control import registry
 from intersection_cosim.errors import InputError
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.cache import cached_net
+from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath, load_paths
 from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, IntersectionSpec
 from intersection_cosim.scenario.model import (
@@ -126,7 +129,7 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
             raise InputError(src, f"{field}.movement", movement,
                              f"the {lane} lane cannot turn {movement} (it allows {', '.join(LANE_USE[lane])})")
         chosen_exit = exit_lane or default_exit_lane(lane, movement)
-        pid = f"{approach}_{lane}_{movement}_{chosen_exit}"
+        pid = str(PathId(approach, lane, movement, chosen_exit))
         if pid not in paths:
             raise InputError(src, f"{field}.exit_lane", exit_lane,
                              f"a {movement} turn from the {lane} lane can exit on {', '.join(LANE_USE[lane][movement])}")
@@ -239,8 +242,6 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
         if not isinstance(table, dict):
             raise InputError(src, f"controller.{name}", table, "must be a table")
     ctrl = from_table(ControllerSettings, ctrl_table, src, "controller")
-    from intersection_cosim.control import registry
-
     if ctrl.kind not in registry.names():
         raise InputError(src, "controller.kind", ctrl.kind, f"must be one of {', '.join(registry.names())}")
     settings = registry.validate_tables(ctrl.kind, tables, src)
@@ -275,10 +276,6 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
 def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | None = None,
                    **controller_fields: Any) -> Scenario:
     """A copy with command-line overrides applied (validated like the file)."""
-    import dataclasses
-
-    from intersection_cosim.control import registry
-
     ctrl = scn.controller
     if controller is not None:
         if controller not in registry.names():

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.spec import JUNCTION_TYPES
 from intersection_cosim.settings import non_negative, positive
 
 
@@ -22,8 +23,6 @@ class ScenarioSettings:
     exit_distance: float = 50.0  # [m] past the junction where vehicles arrive (leave the network)
 
     def check(self) -> list[tuple[str, str]]:
-        from intersection_cosim.network.spec import JUNCTION_TYPES
-
         problems = positive(self, "duration", "step_length", "exit_distance")
         problems += non_negative(self, "drain")
         if self.junction_type not in JUNCTION_TYPES:

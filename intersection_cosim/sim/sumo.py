@@ -17,6 +17,7 @@ import libsumo
 import numpy as np
 
 from intersection_cosim.control.base import Decisions, World
+from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_NAME, LANE_USE
 
@@ -124,7 +125,7 @@ class SumoSimulation:
                 self._switch_exit_lane(vid, lane, pid, info)
                 return
             self.current_path[vid] = pid
-        elif "_out_" in lane and vid not in self.exit_lane_taken:
+        elif "_out_" in lane and vid not in self.exit_lane_taken:  # SUMO lane id "<arm>_out_<index>"
             self.exit_lane_taken[vid] = LANE_NAME[int(lane.rsplit("_", 1)[1])]
 
     def _switch_exit_lane(self, vid: str, lane: str, pid: str, info: VehicleInfo) -> None:
@@ -133,7 +134,7 @@ class SumoSimulation:
         The internal lanes of one approach lane's connections start at the same point, so the
         move changes only which connection the vehicle follows (a SUMO-documented use of moveTo).
         """
-        target_id = f"{info.approach}_{info.lane}_{info.movement}_{info.exit_lane}"
+        target_id = str(PathId(info.approach, info.lane, info.movement, info.exit_lane))
         if target_id not in self.paths:
             return
         old, target = self.paths[pid], self.paths[target_id]

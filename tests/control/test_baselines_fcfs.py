@@ -31,7 +31,7 @@ def _run(scn, out: Path):
     """Run ``scn`` into ``out``; returns (summary, the controller instance the run used)."""
     made = []
     original = registry.create
-    registry.create = lambda s: made.append(original(s)) or made[-1]
+    registry.create = lambda *args: made.append(original(*args)) or made[-1]
     try:
         summary = run_scenario(scn, out)
     finally:
@@ -66,7 +66,7 @@ def test_registry_has_the_baselines_and_fcfs():
         assert name in names
     scn = load_scenario(SCENARIOS / "case1_A.toml")
     for name, jtype in BASELINES.items():
-        ctrl = registry.get(name).factory(scn)
+        ctrl = registry.get(name).factory(scn.controller_settings, scn.scenario.junction_type)
         assert ctrl.junction_type == jtype and not ctrl.controls_vehicles
     assert registry.get("fcfs").settings is FcfsSettings and registry.get("fcfs").table == "solver"
 
@@ -166,6 +166,8 @@ def test_baseline_runs_case1a_on_its_junction_type(name, tmp_path):
     summary, _ = _run(scn, tmp_path / "run")
     assert summary["counts"]["collisions"] == 0
     assert summary["counts"]["arrived"] == 3
+    assert summary["counts"]["safety_interventions"] is None  # Diagnostics(): no safety filter
+    assert not (tmp_path / "run" / "convergence.csv").exists()  # and no games
     assert _centre_type(tmp_path / "run" / "intersection.net.xml") == BASELINES[name]
 
 
@@ -176,6 +178,8 @@ def test_fcfs_runs_the_paper_cases(case, n, tmp_path):
     assert summary["counts"]["collisions"] == 0
     assert summary["counts"]["arrived"] == n == summary["counts"]["vehicles"]
     assert summary["counts"]["fallbacks"] == 0
+    assert (summary["counts"]["safety_interventions"], summary["counts"]["box_rule_clearances"]) == (None, None)
+    assert not (tmp_path / "run" / "convergence.csv").exists()
     assert _centre_type(tmp_path / "run" / "intersection.net.xml") == "priority"
     assert set(ctrl.history) == {v.id for v in scn.vehicles}
     assert _min_separation(ctrl.history) >= ctrl.fs.buffer - 1e-6

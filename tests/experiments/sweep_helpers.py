@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from intersection_cosim.experiments.sweep import TABLE_FILE, WALL_CLOCK_COLUMNS
+from intersection_cosim.results.layout import RUNS_DIR, TABLE_FILE
+from intersection_cosim.results.sweep_folder import WALL_CLOCK_COLUMNS
 
 CASE1A = str(Path(__file__).resolve().parents[2] / "scenarios" / "case1_A.toml")
 GRID = ["--kappa", "V1=0.3,0.7", "--kappa", "V2=0.2:0.5:0.3", "--seeds", "1"]  # 2 x 2 kappa, 1 seed
@@ -34,8 +35,6 @@ def wait_for_a_finished_run(out: Path, proc: subprocess.Popen, timeout: float = 
     after ``timeout`` seconds. A run writes into a hidden temporary folder and renames it when
     done; pathlib's glob matches hidden names, so those are skipped (a run interrupted between
     its summary and its rename is cleaned up, not kept)."""
-    from intersection_cosim.experiments.sweep import RUNS_DIR
-
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline and proc.poll() is None:
         if [p for p in Path(out).glob(f"{RUNS_DIR}/*/summary.json") if not p.parent.name.startswith(".")]:

@@ -10,6 +10,7 @@ import pytest
 
 from intersection_cosim.cli import main
 from intersection_cosim.experiments.compare import COLUMNS, FIGURE_METRICS, make_specs, markdown_table
+from intersection_cosim.experiments.sweep import sweep_jobs
 
 ROOT = Path(__file__).resolve().parents[2]
 LOW = str(ROOT / "scenarios" / "demand_balanced_low.toml")
@@ -39,7 +40,7 @@ def test_duration_override_is_part_of_the_spec():
     b, = make_specs([LOW], "fcfs", "1", None)
     assert a.overrides == (("duration", 60.0),) and b.overrides == ()
     assert a.identity() != b.identity()
-    assert all(j.overrides == (("duration", 60.0),) for j in a.jobs(Path("/tmp/x"), a.scenario_text))
+    assert all(j.overrides == (("duration", 60.0),) for j in sweep_jobs(a, Path("/tmp/x"), a.scenario_text))
 
 
 def test_markdown_table():

@@ -16,7 +16,8 @@ import pytest
 
 from intersection_cosim.cli import main
 from intersection_cosim.experiments.executors import execute_job
-from intersection_cosim.experiments.sweep import FAILED_DIR, RUNS_DIR, SPEC_FILE, make_spec
+from intersection_cosim.experiments.sweep import make_spec, sweep_jobs
+from intersection_cosim.results.layout import FAILED_DIR, RUNS_DIR, SPEC_FILE
 from sweep_helpers import (CASE1A, GRID_RUNS, comparable, group_alive, read_table, run_children, sweep_args,
                            wait_for_a_finished_run)
 
@@ -116,7 +117,7 @@ def test_failed_run_is_recorded_and_does_not_stop_the_sweep(tmp_path, capsys):
 
 def test_a_crashed_run_process_fails_only_its_run(tmp_path):
     spec = make_spec(CASE1A, ["V1=0.4"], None, "1")
-    (job,) = spec.jobs(tmp_path, spec.scenario_text)
+    (job,) = sweep_jobs(spec, tmp_path, spec.scenario_text)
     (tmp_path / RUNS_DIR).mkdir()
     result = {}
     thread = threading.Thread(target=lambda: result.update(execute_job(job)))

@@ -8,14 +8,9 @@ import pytest
 
 from intersection_cosim.cli import main
 from intersection_cosim.errors import InputError
-from intersection_cosim.experiments.sweep import (
-    SPEC_FILE,
-    SweepSpec,
-    format_kappa,
-    make_spec,
-    parse_kappa,
-    parse_seeds,
-)
+from intersection_cosim.experiments.sweep import make_spec, parse_kappa, parse_seeds, sweep_jobs
+from intersection_cosim.results.layout import SPEC_FILE
+from intersection_cosim.results.sweep_folder import SweepSpec, format_kappa
 
 from sweep_helpers import CASE1A
 
@@ -47,7 +42,7 @@ def test_run_ids_are_stable_and_unique():
     assert format_kappa(0.125) == "0.125"
     assert format_kappa(1.0) == "1.00"
     spec = make_spec(CASE1A, ["V1=0.1:0.9:0.1", "V2=0.2,0.5"], "sumo", "1-2")
-    jobs = spec.jobs("/tmp/x")
+    jobs = sweep_jobs(spec, "/tmp/x")
     assert spec.total == len(jobs) == 9 * 2 * 2
     assert len({j.run_id for j in jobs}) == len(jobs)
     assert jobs[0].run_id == "sumo-seed1-V1_0.10-V2_0.20"

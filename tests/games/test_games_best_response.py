@@ -252,13 +252,13 @@ def test_deadline_anytime_mode(pair_battery, gs, ms, monkeypatch):
     # every best response takes >= 4 ms: a 20 ms budget fits a few iterations, not 1000
     from intersection_cosim.games import nash as nash_module
 
-    respond = nash_module._Game.respond
+    respond = nash_module.EquilibriumSolve.respond
 
     def slow_respond(self, *args, **kwargs):
         time.sleep(0.004)
         return respond(self, *args, **kwargs)
 
-    monkeypatch.setattr(nash_module._Game, "respond", slow_respond)
+    monkeypatch.setattr(nash_module.EquilibriumSolve, "respond", slow_respond)
     endless = GameSettings(solver=SolverSettings(nash_tol=1e-12, nash_cost_rtol=0.0, nash_max_iter=1000))
     start = time.perf_counter()
     soon = nash_equilibrium(problem, endless, ms, deadline=start + 0.02)

@@ -208,12 +208,12 @@ def _bodies(path, s_front):
     ("north_inner_left_middle", "east_inner_left_inner"),  # two left turns
 ])
 def test_cross_zone_is_where_the_bodies_can_overlap(conflict_table, paths, a, b):
-    """Checked against the separating-axis body test of report.metrics (an independent method):
+    """Checked against the separating-axis body test of results.metrics (an independent method):
     a body on ``a`` just outside [zone_in, zone_out] overlaps no body anywhere on ``b``; one
     inside the zone overlaps some body on ``b``."""
     import pandas as pd
 
-    from intersection_cosim.report.metrics import body_overlaps
+    from intersection_cosim.results.metrics import body_overlaps
 
     t = conflict_table
     p, q = t.index[a], t.index[b]

@@ -1,5 +1,6 @@
 """The game controllers in the closed loop with real SUMO: the paper's 24 runs and the scheduler."""
 
+import json
 import time
 from pathlib import Path
 
@@ -9,7 +10,7 @@ import pytest
 
 from intersection_cosim.control.game import GameController
 from intersection_cosim.experiments.run import run_scenario
-from intersection_cosim.report.metrics import body_overlaps
+from intersection_cosim.results.metrics import body_overlaps
 from intersection_cosim.scenario import load_scenario, with_overrides
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
@@ -53,6 +54,20 @@ def test_all_24_runs_arrive_without_collision(paper_runs):
         assert vehicles["arrival"].notna().all(), key
         assert not vehicles["collided"].any(), key
         assert pd.read_csv(run / "steps.csv")["fallback"].sum() == 0, key
+
+
+@pytest.mark.slow
+def test_game_diagnostics_reach_summary_and_convergence_csv(paper_runs):
+    """GameController.diagnostics(): one convergence.csv row per iteration of every game, and the
+    safety filter's counts as integers in summary.json."""
+    for key, run in paper_runs.items():
+        counts = json.loads((run / "summary.json").read_text())["counts"]
+        assert isinstance(counts["safety_interventions"], int) and counts["safety_interventions"] >= 0, key
+        assert isinstance(counts["box_rule_clearances"], int) and counts["box_rule_clearances"] >= 0, key
+        conv = pd.read_csv(run / "convergence.csv")
+        steps = pd.read_csv(run / "steps.csv")
+        assert steps["games"].sum() > 0 and len(conv) > 0 and (conv["iteration"] >= 1).all(), key
+        assert set(conv["solver"]) <= {"nash", "stackelberg", key[1]}, key
 
 
 @pytest.mark.slow

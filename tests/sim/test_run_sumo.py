@@ -8,7 +8,7 @@ import pytest
 
 from intersection_cosim.cli import main
 from intersection_cosim.experiments.run import run_scenario
-from intersection_cosim.report.sumo_outputs import read_tripinfo
+from intersection_cosim.results.sumo_outputs import read_tripinfo
 from intersection_cosim.scenario import load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"

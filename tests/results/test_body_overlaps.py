@@ -4,7 +4,8 @@ import math
 
 import pandas as pd
 
-from intersection_cosim.report.metrics import body_overlaps
+from intersection_cosim.results.metrics import body_overlaps
+from intersection_cosim.results.sumo_outputs import read_ssm
 
 
 def _traj(rows):
@@ -26,8 +27,6 @@ def test_crossing_bodies_overlap_and_separated_ones_do_not():
 
 
 def test_sumo_sentinel_values_are_not_measurements(tmp_path):
-    from intersection_cosim.report.sumo_outputs import read_ssm
-
     (tmp_path / "ssm.xml").write_text(
         '<SSMLog><conflict begin="1" end="2" ego="a" foe="b">'
         '<minTTC time="1.5" value="NA"/><PET time="1.8" value="-1.79769e+308"/>'

@@ -1,0 +1,62 @@
+"""The layout of run and sweep folders: file names, CSV columns and where each run lives.
+
+A run folder (written atomically by ``experiments.run``)::
+
+    summary.json        counts, metrics, settings and versions; its presence marks a finished run
+    trajectories.csv    TRAJECTORY_COLUMNS, one row per vehicle and control step
+    steps.csv           STEP_COLUMNS, one row per control step
+    convergence.csv     CONVERGENCE_COLUMNS (game controllers only)
+    vehicles.csv        one row per vehicle (``results.metrics.vehicle_table``)
+    pairs.csv           one row per conflicting pair (``results.metrics.pair_table``)
+    tripinfo.xml, ssm.xml, collisions.xml   SUMO's own outputs (``results.sumo_outputs``)
+
+A sweep folder (written by ``experiments.sweep``)::
+
+    sweep.json          the sweep's spec (``results.sweep_folder.SweepSpec``)
+    sweep.csv           one row per finished or failed run, rebuilt from the run folders
+    runs/<run id>/      one run folder each
+    failed/<run id>.json  the error of a run that failed
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+# --- a run folder ------------------------------------------------------------------------------
+RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
+TRAJECTORIES_FILE = "trajectories.csv"
+STEPS_FILE = "steps.csv"
+CONVERGENCE_FILE = "convergence.csv"
+VEHICLES_FILE = "vehicles.csv"
+PAIRS_FILE = "pairs.csv"
+TRIPINFO_FILE = "tripinfo.xml"
+SSM_FILE = "ssm.xml"
+COLLISIONS_FILE = "collisions.xml"
+
+# time [s], vehicle, x, y [m], speed [m/s], accel [m/s^2], heading [rad], lane, role, path,
+# s [m] along the path, accel_cmd [m/s^2] (NaN: not commanded)
+TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
+                      "accel_cmd"]
+CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
+STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves"]
+
+# --- a sweep folder ----------------------------------------------------------------------------
+SPEC_FILE = "sweep.json"
+TABLE_FILE = "sweep.csv"
+RUNS_DIR = "runs"
+FAILED_DIR = "failed"
+
+
+def is_finished_run(run_dir: str | Path) -> bool:
+    """True if ``run_dir`` holds a finished run (its ``summary.json``)."""
+    return (Path(run_dir) / RUN_MARKER).is_file()
+
+
+def run_folder(sweep_dir: str | Path, run_id: str) -> Path:
+    """The folder of run ``run_id`` of the sweep in ``sweep_dir``."""
+    return Path(sweep_dir) / RUNS_DIR / run_id
+
+
+def failure_file(sweep_dir: str | Path, run_id: str) -> Path:
+    """The failure record of run ``run_id`` of the sweep in ``sweep_dir``."""
+    return Path(sweep_dir) / FAILED_DIR / f"{run_id}.json"
