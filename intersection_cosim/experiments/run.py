@@ -22,7 +22,8 @@ from intersection_cosim import __version__
 from intersection_cosim.control import registry
 from intersection_cosim.control.base import ControlContext
 from intersection_cosim.errors import InputError
-from intersection_cosim.experiments.files import ROUTE_FILE, SUMOCFG_FILE, write_routes, write_sumocfg
+from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_output_options, write_routes,
+                                                  write_sumocfg)
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net
 from intersection_cosim.network.paths import load_paths
@@ -141,7 +142,9 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     game_steps: dict[tuple[str, str], int] = {}
     end_time = s.duration + s.drain
     try:
-        sim.start(str(folder / SUMOCFG_FILE))  # SUMO resolves the config's paths against its folder
+        # SUMO resolves the config's paths against its folder; the run's own outputs are given on
+        # the command line (the config's go to replay/)
+        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder))
         sim.advance()  # time 0: insert the vehicles that depart at once
         k = 0
         while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
