@@ -29,6 +29,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
+    return value
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -60,6 +70,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--budget-ms", type=_positive_float, help="[ms] wall-time budget per control step")
     run.add_argument("--no-etm", action="store_true", help="play a game for every conflicting pair")
     run.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    run.add_argument("--gui", action="store_true",
+                     help="show the run live in sumo-gui (through TraCI); the outputs are the same")
+    run.add_argument("--gui-delay", type=_non_negative_float, default=50.0, metavar="MS",
+                     help="[ms] sumo-gui's pause per SUMO step with --gui (default 50: about real time)")
 
     sweep = sub.add_parser("sweep", help="run a scenario over a grid of kappa values, controllers and seeds")
     sweep.add_argument("scenario", help="scenario file (TOML)")
@@ -111,7 +125,12 @@ def _cmd_run(args) -> int:
     scn = with_overrides(scn, controller=args.controller, seed=args.seed, budget_ms=args.budget_ms,
                          etm=False if args.no_etm else None, realtime=True if args.realtime else None)
     out = Path(args.out) if args.out else Path("runs") / f"{scn.scenario.name}-{scn.controller.kind}-seed{scn.scenario.seed}"
-    summary = run_scenario(scn, out)
+    gui = None
+    if args.gui:
+        from intersection_cosim.sim.gui import GuiSettings
+
+        gui = GuiSettings(delay_ms=args.gui_delay)
+    summary = run_scenario(scn, out, gui=gui)
     c = summary["counts"]
     print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")

@@ -1,5 +1,8 @@
 """One run of one scenario: SUMO inputs -> closed loop through libsumo -> CSVs and summary.
 
+With ``gui`` settings the same loop drives sumo-gui through TraCI instead, and a
+:class:`~intersection_cosim.sim.gui.GuiView` draws each step's decisions; the outputs are the same.
+
 Everything is written into a temporary folder beside the output folder and renamed into place
 when the run has finished, so a crashed or interrupted run leaves no half-written results.
 """
@@ -82,16 +85,21 @@ def _versions() -> dict[str, str]:
             "osqp": getattr(osqp, "__version__", "unknown")}
 
 
-def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None) -> dict:
+def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None, gui=None) -> dict:
     """Run ``scn`` and write its results into ``out``; return the summary dict.
 
-    ``fail_hook`` (tests only) is called after the simulation loop, before the rename, so tests can
-    simulate a crash at the worst moment.
+    ``gui`` (a :class:`~intersection_cosim.sim.gui.GuiSettings`) shows the run live in sumo-gui;
+    None (the default) runs headless through libsumo. ``fail_hook`` (tests only) is called after
+    the simulation loop, before the rename, so tests can simulate a crash at the worst moment.
     """
     out = Path(out)
+    if gui is not None:
+        from intersection_cosim.sim.gui import check_display
+
+        check_display()  # before anything is written
     tmp = prepare_output(out)
     try:
-        summary = _run_into(scn, tmp)
+        summary = _run_into(scn, tmp, gui)
         if fail_hook is not None:
             fail_hook()
         finish_output(tmp, out)
@@ -101,10 +109,11 @@ def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None) -> dict:
     return summary
 
 
-def _run_into(scn: Scenario, folder: Path) -> dict:
+def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     from intersection_cosim.network.conflicts import load_conflicts
+    from intersection_cosim.sim.gui import GuiView
     from intersection_cosim.sim.scheduler import StepScheduler
-    from intersection_cosim.sim.sumo import SumoSimulation, VehicleInfo
+    from intersection_cosim.sim.sumo import LIBSUMO, SumoSimulation, VehicleInfo
 
     s = scn.scenario
     controller = registry.create(scn)
@@ -135,7 +144,10 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     controller.setup(ControlContext(paths=paths, net_file=str(net), model=scn.model, control_period=scn.controller.period,
                                     solver=scn.solver, etm=scn.controller.etm))
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
-    sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length, exit_distance=s.exit_distance)
+    view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
+    observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
+    sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length, exit_distance=s.exit_distance,
+                         backend=view.backend() if view is not None else LIBSUMO)
 
     traj_rows: list[tuple] = []
     step_rows: list[tuple] = []
@@ -145,6 +157,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
         # the command line (the config's go to replay/)
         sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder))
+        if view is not None:
+            view.attach(sim.api)
         sim.advance()  # time 0: insert the vehicles that depart at once
         k = 0
         while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
@@ -152,6 +166,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                 world = sim.world()  # read
                 decisions, record = scheduler.step(world)  # decide
                 sim.command(decisions)
+                for observe in observers:
+                    observe(world, decisions)
                 for i, vid in enumerate(world.ids):
                     traj_rows.append((world.time, vid, world.x[i], world.y[i], world.v[i], world.a[i],
                                       world.heading[i], world.lanes[i], world.role[i],
@@ -168,6 +184,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         exit_lanes = dict(sim.exit_lane_taken)
     finally:
         sim.close()
+        if view is not None:
+            view.close()
 
     traj = pd.DataFrame(traj_rows, columns=TRAJECTORY_COLUMNS)
     steps = pd.DataFrame(step_rows, columns=STEP_COLUMNS)
@@ -209,6 +227,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
             "compute_ms_p95": _num(steps["compute_ms"].quantile(0.95)),
         },
     }
+    if gui is not None:
+        summary["gui"] = {"simulator": "sumo-gui through TraCI", "delay_ms": gui.delay_ms}
     with open(folder / RUN_MARKER, "w") as fh:
         json.dump(summary, fh, indent=2)
     return summary
