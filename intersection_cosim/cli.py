@@ -104,7 +104,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
+    _add_animate(sub)
     return parser
+
+
+def _add_animate(sub) -> None:
+    animate = sub.add_parser("animate", help="a GIF or MP4 of a run, drawn from its run folder")
+    animate.add_argument("run_dir", help="a run folder (holds summary.json)")
+    animate.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg; default: RUN_DIR/animation.gif)")
+    animate.add_argument("--fps", type=_positive_float, default=10.0,
+                         help="[1/s] frames per second; one frame per 0.1 s of simulation (default 10: real time)")
 
 
 def _cmd_net(args) -> int:
@@ -173,8 +182,15 @@ def _cmd_report(args) -> int:
     return 0
 
 
+def _cmd_animate(args) -> int:
+    from intersection_cosim.report.animation import AnimationSettings, animate
+
+    print(animate(args.run_dir, args.out, AnimationSettings(fps=args.fps)))
+    return 0
+
+
 COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare,
-            "report": _cmd_report}
+            "report": _cmd_report, "animate": _cmd_animate}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
                       "accel_cmd"]
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
+GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b"]  # games.csv: one row per game played (Decisions.pairs)
 STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves"]
 RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
 
@@ -152,6 +153,7 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     traj_rows: list[tuple] = []
     step_rows: list[tuple] = []
     game_steps: dict[tuple[str, str], int] = {}
+    game_rows: list[tuple] = []
     end_time = s.duration + s.drain
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
@@ -174,6 +176,7 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
                                       world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
                 step_rows.append(dataclasses.astuple(record))
                 for a, b in decisions.pairs:
+                    game_rows.append((world.time, a, b))
                     key = (a, b) if a < b else (b, a)
                     game_steps[key] = game_steps.get(key, 0) + 1
             sim.write()  # write
@@ -204,6 +207,7 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
         pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / "convergence.csv", index=False,
                                                                float_format="%.6g")
     steps.to_csv(folder / "steps.csv", index=False, float_format="%.4f")
+    pd.DataFrame(game_rows, columns=GAME_COLUMNS).to_csv(folder / "games.csv", index=False, float_format="%.4f")
     vehicles.to_csv(folder / "vehicles.csv", index=False, float_format="%.4f")
     pairs.to_csv(folder / "pairs.csv", index=False, float_format="%.4f")
 
