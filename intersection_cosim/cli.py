@@ -29,6 +29,16 @@ def _positive_float(text: str) -> float:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
+    return value
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -60,6 +70,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--budget-ms", type=_positive_float, help="[ms] wall-time budget per control step")
     run.add_argument("--no-etm", action="store_true", help="play a game for every conflicting pair")
     run.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
+    run.add_argument("--gui", action="store_true",
+                     help="show the run live in sumo-gui (through TraCI); the outputs are the same")
+    run.add_argument("--gui-delay", type=_non_negative_float, default=50.0, metavar="MS",
+                     help="[ms] sumo-gui's pause per SUMO step with --gui (default 50: about real time)")
 
     sweep = sub.add_parser("sweep", help="run a scenario over a grid of kappa values, controllers and seeds")
     sweep.add_argument("scenario", help="scenario file (TOML)")
@@ -90,7 +104,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
+    _add_animate(sub)
     return parser
+
+
+def _add_animate(sub) -> None:
+    animate = sub.add_parser("animate", help="a GIF or MP4 of a run, drawn from its run folder")
+    animate.add_argument("run_dir", help="a run folder (holds summary.json)")
+    animate.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg; default: RUN_DIR/animation.gif)")
+    animate.add_argument("--fps", type=_positive_float, default=10.0,
+                         help="[1/s] frames per second; one frame per 0.1 s of simulation (default 10: real time)")
 
 
 def _cmd_net(args) -> int:
@@ -111,7 +134,12 @@ def _cmd_run(args) -> int:
     scn = with_overrides(scn, controller=args.controller, seed=args.seed, budget_ms=args.budget_ms,
                          etm=False if args.no_etm else None, realtime=True if args.realtime else None)
     out = Path(args.out) if args.out else Path("runs") / f"{scn.scenario.name}-{scn.controller.kind}-seed{scn.scenario.seed}"
-    summary = run_scenario(scn, out)
+    gui = None
+    if args.gui:
+        from intersection_cosim.sim.gui import GuiSettings
+
+        gui = GuiSettings(delay_ms=args.gui_delay)
+    summary = run_scenario(scn, out, gui=gui)
     c = summary["counts"]
     print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
@@ -154,8 +182,15 @@ def _cmd_report(args) -> int:
     return 0
 
 
+def _cmd_animate(args) -> int:
+    from intersection_cosim.report.animation import AnimationSettings, animate
+
+    print(animate(args.run_dir, args.out, AnimationSettings(fps=args.fps)))
+    return 0
+
+
 COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare,
-            "report": _cmd_report}
+            "report": _cmd_report, "animate": _cmd_animate}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,4 +1,9 @@
-"""SUMO input files of a run: the route file and the ``.sumocfg`` that sumo-gui opens too."""
+"""SUMO input files of a run: the route file and the ``.sumocfg`` that sumo-gui opens too.
+
+The exported ``.sumocfg`` sends SUMO's outputs into ``replay/`` beside it, so opening it later never
+overwrites the run's own ``tripinfo.xml``, ``ssm.xml`` and ``collisions.xml``; the run itself puts
+them in the run folder with :func:`run_output_options` on SUMO's command line.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +19,15 @@ SUMOCFG_FILE = "scenario.sumocfg"
 SSM_THRESHOLDS = (3.0, 3.0, 2.0)  # TTC [s], DRAC [m/s^2], PET [s]: SUMO's defaults, for shares
 SSM_RECORD_THRESHOLDS = "10.0 3.0 5.0"  # record encounters up to TTC 10 s / PET 5 s
 SSM_RANGE = 50.0  # [m] SSM device search range
+REPLAY_DIR = "replay"  # the exported config's SUMO outputs go here (relative to the config)
+# SUMO option -> file name of each SUMO output of a run (in the run folder; in REPLAY_DIR on replay)
+SUMO_OUTPUT_FILES = {"tripinfo-output": "tripinfo.xml", "collision-output": "collisions.xml",
+                     "device.ssm.file": "ssm.xml"}
+REPLAY_README = """This folder receives SUMO's outputs when scenario.sumocfg (one level up) is opened with sumo or
+sumo-gui. That replay runs SUMO's own driver model on the run's net and routes, NOT the game
+controller, so its outputs differ from the run's own tripinfo.xml, ssm.xml and collisions.xml, which
+it leaves untouched. To watch the controller drive, use: intersection-cosim run SCENARIO --gui
+"""
 
 
 def _write(root: ET.Element, path: Path) -> None:
@@ -55,8 +69,29 @@ def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow
     _write(root, path)
 
 
+def run_output_options(folder: Path) -> list[str]:
+    """SUMO command-line options that write the run's own outputs into ``folder`` (absolute paths).
+
+    Options on the command line override the config's, so the run's outputs land where they always
+    did while the exported config keeps pointing at ``replay/``.
+    """
+    folder = Path(folder).resolve()
+    return [arg for option, name in SUMO_OUTPUT_FILES.items() for arg in (f"--{option}", str(folder / name))]
+
+
 def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
-    """A config with every option of the run; ``sumo-gui -c`` on it replays the scenario."""
+    """A config with every option of the run, its SUMO outputs going to ``replay/`` beside it.
+
+    What it replays: ``sumo-gui -c scenario.sumocfg`` runs the same net, routes, step length, seed and
+    SUMO options as the run, but with SUMO's own driver model and right of way; it does NOT run the
+    game controller (or any other controller of this package), so the vehicles' motion differs
+    from the run's trajectories. Its tripinfo, SSM and collision outputs go to ``replay/`` (made
+    here, with a README), never over the run's own files. To watch the controller itself, use
+    ``intersection-cosim run SCENARIO --gui``.
+    """
+    replay = Path(path).parent / REPLAY_DIR
+    replay.mkdir(exist_ok=True)
+    (replay / "README.txt").write_text(REPLAY_README)
     s = scn.scenario
     root = ET.Element("configuration")
     sections = {
@@ -66,11 +101,11 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
                        "collision.mingap-factor": "0", "time-to-teleport": "-1",
                        "default.speeddev": "0"},
         "random_number": {"seed": str(s.seed)},
-        "output": {"tripinfo-output": "tripinfo.xml", "tripinfo-output.write-unfinished": "true",
-                   "collision-output": "collisions.xml"},
+        "output": {"tripinfo-output": _replay("tripinfo-output"), "tripinfo-output.write-unfinished": "true",
+                   "collision-output": _replay("collision-output")},
         "ssm_device": {"device.ssm.probability": "1", "device.ssm.measures": "TTC DRAC PET",
                        "device.ssm.thresholds": SSM_RECORD_THRESHOLDS, "device.ssm.range": f"{SSM_RANGE:g}",
-                       "device.ssm.file": "ssm.xml", "device.ssm.trajectories": "false"},
+                       "device.ssm.file": _replay("device.ssm.file"), "device.ssm.trajectories": "false"},
         "report": {"no-warnings": "true", "no-step-log": "true", "duration-log.disable": "true"},
     }
     for section, options in sections.items():
@@ -78,3 +113,7 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
         for key, value in options.items():
             ET.SubElement(sec, key, value=value)
     _write(root, path)
+
+
+def _replay(option: str) -> str:
+    return f"{REPLAY_DIR}/{SUMO_OUTPUT_FILES[option]}"

@@ -1,5 +1,8 @@
 """One run of one scenario: SUMO inputs -> closed loop through libsumo -> CSVs and summary.
 
+With ``gui`` settings the same loop drives sumo-gui through TraCI instead, and a
+:class:`~intersection_cosim.sim.gui.GuiView` draws each step's decisions; the outputs are the same.
+
 Everything is written into a temporary folder beside the output folder and renamed into place
 when the run has finished, so a crashed or interrupted run leaves no half-written results.
 """
@@ -22,14 +25,16 @@ from intersection_cosim import __version__
 from intersection_cosim.control import registry
 from intersection_cosim.control.base import ControlContext
 from intersection_cosim.errors import InputError
-from intersection_cosim.experiments.files import ROUTE_FILE, SUMOCFG_FILE, write_routes, write_sumocfg
+from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_output_options, write_routes,
+                                                  write_sumocfg)
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import load_conflicts
 from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import load_paths
 from intersection_cosim.network.spec import IntersectionSpec
-from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, PAIRS_FILE,
+from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
+                                               GAMES_FILE, PAIRS_FILE,
                                                RUN_MARKER, SSM_FILE, STEP_COLUMNS, STEPS_FILE, TRAJECTORIES_FILE,
                                                TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
@@ -79,16 +84,21 @@ def _versions() -> dict[str, str]:
             "osqp": getattr(osqp, "__version__", "unknown")}
 
 
-def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None) -> dict:
+def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None, gui=None) -> dict:
     """Run ``scn`` and write its results into ``out``; return the summary dict.
 
-    ``fail_hook`` (tests only) is called after the simulation loop, before the rename, so tests can
-    simulate a crash at the worst moment.
+    ``gui`` (a :class:`~intersection_cosim.sim.gui.GuiSettings`) shows the run live in sumo-gui;
+    None (the default) runs headless through libsumo. ``fail_hook`` (tests only) is called after
+    the simulation loop, before the rename, so tests can simulate a crash at the worst moment.
     """
     out = Path(out)
+    if gui is not None:
+        from intersection_cosim.sim.gui import check_display
+
+        check_display()  # before anything is written
     tmp = prepare_output(out)
     try:
-        summary = _run_into(scn, tmp)
+        summary = _run_into(scn, tmp, gui)
         if fail_hook is not None:
             fail_hook()
         finish_output(tmp, out)
@@ -98,11 +108,12 @@ def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None) -> dict:
     return summary
 
 
-def _run_into(scn: Scenario, folder: Path) -> dict:
+def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     # The simulator layer (libsumo) is loaded only by the process that runs a simulation, not by
     # a sweep's supervising process, which imports this module through experiments.executors.
+    from intersection_cosim.sim.gui import GuiView
     from intersection_cosim.sim.scheduler import StepScheduler
-    from intersection_cosim.sim.sumo import SumoSimulation, VehicleInfo
+    from intersection_cosim.sim.sumo import LIBSUMO, SumoSimulation, VehicleInfo
 
     s = scn.scenario
     controller = registry.create(scn.controller.kind, scn.controller_settings, s.junction_type)
@@ -133,14 +144,22 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
     controller.setup(ControlContext(paths=paths, net_file=str(net), model=scn.model, control_period=scn.controller.period,
                                     settings=scn.controller_settings, etm=scn.controller.etm))
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
-    sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length, exit_distance=s.exit_distance)
+    view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
+    observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
+    sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length, exit_distance=s.exit_distance,
+                         backend=view.backend() if view is not None else LIBSUMO)
 
     traj_rows: list[tuple] = []
     step_rows: list[tuple] = []
     game_steps: dict[tuple[str, str], int] = {}
+    game_rows: list[tuple] = []
     end_time = s.duration + s.drain
     try:
-        sim.start(str(folder / SUMOCFG_FILE))  # SUMO resolves the config's paths against its folder
+        # SUMO resolves the config's paths against its folder; the run's own outputs are given on
+        # the command line (the config's go to replay/)
+        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder))
+        if view is not None:
+            view.attach(sim.api)
         sim.advance()  # time 0: insert the vehicles that depart at once
         k = 0
         while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
@@ -148,12 +167,15 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
                 world = sim.world()  # read
                 decisions, record = scheduler.step(world)  # decide
                 sim.command(decisions)
+                for observe in observers:
+                    observe(world, decisions)
                 for i, vid in enumerate(world.ids):
                     traj_rows.append((world.time, vid, world.x[i], world.y[i], world.v[i], world.a[i],
                                       world.heading[i], world.lanes[i], world.role[i],
                                       world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
                 step_rows.append(dataclasses.astuple(record))
                 for a, b in decisions.pairs:
+                    game_rows.append((world.time, a, b))
                     key = (a, b) if a < b else (b, a)
                     game_steps[key] = game_steps.get(key, 0) + 1
             sim.write()  # write
@@ -164,6 +186,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         exit_lanes = dict(sim.exit_lane_taken)
     finally:
         sim.close()
+        if view is not None:
+            view.close()
 
     traj = pd.DataFrame(traj_rows, columns=TRAJECTORY_COLUMNS)
     steps = pd.DataFrame(step_rows, columns=STEP_COLUMNS)
@@ -182,6 +206,7 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
         pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / CONVERGENCE_FILE, index=False,
                                                                float_format="%.6g")
     steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
+    pd.DataFrame(game_rows, columns=GAME_COLUMNS).to_csv(folder / GAMES_FILE, index=False, float_format="%.4f")
     vehicles.to_csv(folder / VEHICLES_FILE, index=False, float_format="%.4f")
     pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
 
@@ -206,6 +231,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
             "compute_ms_p95": _num(steps["compute_ms"].quantile(0.95)),
         },
     }
+    if gui is not None:
+        summary["gui"] = {"simulator": "sumo-gui through TraCI", "delay_ms": gui.delay_ms}
     with open(folder / RUN_MARKER, "w") as fh:
         json.dump(summary, fh, indent=2)
     return summary

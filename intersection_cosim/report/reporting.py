@@ -201,7 +201,8 @@ def run_report(folder: Path) -> Path:
                                                figs / "compute_time_hist.png", budget_ms=budget)))
     counts = pd.DataFrame([summary.get("counts", {})])
     metrics = pd.DataFrame([summary.get("metrics", {})])
-    lines = [f"# Run report: {title}", "", f"- folder: `{folder}`",
+    gui = " (shown live in sumo-gui)" if summary.get("gui") else ""
+    lines = [f"# Run report: {title}", "", f"- folder: `{folder}`{gui}",
              f"- versions: {', '.join(f'{k} {v}' for k, v in summary.get('versions', {}).items())}", "",
              "## Summary", "", markdown_table(counts), "", markdown_table(metrics), ""]
     for name, caption in ((VEHICLES_FILE, "Vehicles"), (PAIRS_FILE, "Conflicting pairs")):
@@ -211,4 +212,14 @@ def run_report(folder: Path) -> Path:
     for caption, path in figures:
         rel = Path(path).relative_to(folder)
         lines += [f"### {caption}", "", f"![{rel.stem}]({rel})", ""]
+    lines += _animation_section(folder)
     return _write(folder / REPORT_FILE, "\n".join(lines))
+
+
+def _animation_section(folder: Path) -> list[str]:
+    """A link to the run's animation when ``intersection-cosim animate`` has made it."""
+    from intersection_cosim.report.animation import ANIMATION_FILE
+
+    if not (folder / ANIMATION_FILE).is_file():
+        return []
+    return ["## Animation", "", f"![animation]({ANIMATION_FILE})", ""]

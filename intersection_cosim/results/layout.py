@@ -6,6 +6,7 @@ A run folder (written atomically by ``experiments.run``)::
     trajectories.csv    TRAJECTORY_COLUMNS, one row per vehicle and control step
     steps.csv           STEP_COLUMNS, one row per control step
     convergence.csv     CONVERGENCE_COLUMNS (game controllers only)
+    games.csv           GAME_COLUMNS, one row per game played (empty for controllers without games)
     vehicles.csv        one row per vehicle (``results.metrics.vehicle_table``)
     pairs.csv           one row per conflicting pair (``results.metrics.pair_table``)
     tripinfo.xml, ssm.xml, collisions.xml   SUMO's own outputs (``results.sumo_outputs``)
@@ -27,6 +28,7 @@ RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
 TRAJECTORIES_FILE = "trajectories.csv"
 STEPS_FILE = "steps.csv"
 CONVERGENCE_FILE = "convergence.csv"
+GAMES_FILE = "games.csv"
 VEHICLES_FILE = "vehicles.csv"
 PAIRS_FILE = "pairs.csv"
 TRIPINFO_FILE = "tripinfo.xml"
@@ -38,6 +40,7 @@ COLLISIONS_FILE = "collisions.xml"
 TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
                       "accel_cmd"]
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
+GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b"]  # time [s] of the step, the pair that played
 STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves"]
 
 # --- a sweep folder ----------------------------------------------------------------------------

@@ -1,1 +1,1 @@
-"""The simulator layer: the libsumo adapter (the only libsumo import) and the step scheduler."""
+"""The simulator layer: the SUMO adapter (libsumo headless, TraCI for sumo-gui), the GUI view and the step scheduler."""

@@ -1,17 +1,24 @@
-"""The libsumo adapter: the only module of the package that imports the simulator.
+"""The SUMO adapter: with :mod:`intersection_cosim.sim.gui`, the only code that imports the simulator.
 
-It starts SUMO from a ``.sumocfg`` (the same file opens the scenario in sumo-gui), keeps the
+It drives SUMO through a module with libsumo's API, chosen by a :class:`SumoBackend`: libsumo
+in-process for headless runs (the default), or TraCI to a sumo-gui it starts for ``run --gui``;
+the same code reads, writes and steps either. It starts SUMO from a ``.sumocfg``, keeps the
 explicit order of one simulation step in :meth:`SumoSimulation.advance`: read (one subscription
 read per step) -> the caller decides -> write -> step, and turns SUMO's state into
 :class:`~intersection_cosim.control.base.World` snapshots in the paper's frame.
 
-libsumo runs one simulation per process; :func:`close` is always called in a ``finally``.
+libsumo runs one simulation per process; :meth:`SumoSimulation.close` is always called in a
+``finally``.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import subprocess
 from dataclasses import dataclass, field
+from types import ModuleType
 
 import libsumo
 import numpy as np
@@ -31,6 +38,37 @@ SPEED_MODE_SUMO = 31  # SUMO's default: every safety check on (for vehicles rele
 
 def sumo_version() -> str:
     return libsumo.getVersion()[1]
+
+
+@dataclass(frozen=True)
+class SumoBackend:
+    """Which module drives SUMO and which SUMO program it runs.
+
+    ``module`` has libsumo's API (libsumo itself, or traci, which mirrors it over a socket);
+    ``binary`` is the program traci starts (libsumo runs in-process and only reads the options).
+    """
+
+    module: ModuleType
+    binary: str = "sumo"
+    options: tuple[str, ...] = ()  # extra options for this program only (e.g. sumo-gui's --start)
+
+    def start(self, args: list[str]) -> None:
+        cmd = [self.binary, *args, *self.options]
+        if self.module is libsumo:
+            libsumo.start(cmd)
+            return
+        with contextlib.redirect_stdout(io.StringIO()):  # traci prints "Retrying" while the GUI opens
+            self.module.start(cmd, stdout=subprocess.DEVNULL)
+
+
+LIBSUMO = SumoBackend(libsumo)  # headless, in this process: every run but ``run --gui``
+
+
+def traci_backend(binary: str, options: tuple[str, ...] = ()) -> SumoBackend:
+    """A backend that starts ``binary`` (e.g. sumo-gui) and drives it through TraCI."""
+    import traci
+
+    return SumoBackend(traci, binary, tuple(options))
 
 
 @dataclass
@@ -57,6 +95,7 @@ class SumoSimulation:
     vehicles: dict[str, VehicleInfo]
     step_length: float  # [s]
     exit_distance: float = 50.0  # [m] past the junction where vehicles arrive (the routes' arrivalPos)
+    backend: SumoBackend = LIBSUMO
     time: float = 0.0  # [s]
     states: dict[str, dict] = field(default_factory=dict)
     current_path: dict[str, str] = field(default_factory=dict)
@@ -71,43 +110,48 @@ class SumoSimulation:
         for pid, p in self.paths.items():
             for lane in p.lanes[1:]:
                 self._lane_to_paths.setdefault(lane, []).append(pid)
-        libsumo.start(["sumo", "-c", sumocfg, "--no-step-log", "true", *(extra or [])])
+        self.backend.start(["-c", sumocfg, "--no-step-log", "true", *(extra or [])])
+
+    @property
+    def api(self) -> ModuleType:
+        """The module driving SUMO (libsumo or traci): for views that decorate the running simulation."""
+        return self.backend.module
 
     # --- one step --------------------------------------------------------------------------
     def advance(self) -> None:
         """Step SUMO once, then register departures and arrivals and read every vehicle's state."""
-        libsumo.simulationStep()
-        self.time = libsumo.simulation.getTime()
-        for vid in libsumo.simulation.getDepartedIDList():
+        self.api.simulationStep()
+        self.time = self.api.simulation.getTime()
+        for vid in self.api.simulation.getDepartedIDList():
             self.departed[vid] = self.time - self.step_length
-            libsumo.vehicle.subscribe(vid, _VARS)
+            self.api.vehicle.subscribe(vid, _VARS)
             info = self.vehicles.get(vid)
             if info is None:
                 continue
             self.current_path[vid] = info.intended_path
             if info.desired_speed is not None:
-                libsumo.vehicle.setMaxSpeed(vid, info.desired_speed)
+                self.api.vehicle.setMaxSpeed(vid, info.desired_speed)
             if info.controlled:
-                libsumo.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)
-                libsumo.vehicle.setLaneChangeMode(vid, LANE_CHANGE_MODE_CONTROLLED)
+                self.api.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)
+                self.api.vehicle.setLaneChangeMode(vid, LANE_CHANGE_MODE_CONTROLLED)
             if info.start_s is not None:
                 lane, pos = self.paths[info.intended_path].lane_at(info.start_s)
-                libsumo.vehicle.moveTo(vid, lane, pos)
+                self.api.vehicle.moveTo(vid, lane, pos)
                 self.switched.add(vid)  # moveTo resets its arrival position (see _arrive_switched)
-        for vid in libsumo.simulation.getArrivedIDList():
+        for vid in self.api.simulation.getArrivedIDList():
             self.arrived[vid] = self.time
             self.states.pop(vid, None)
             self.commands.pop(vid, None)
-        results = libsumo.vehicle.getAllSubscriptionResults()
+        results = self.api.vehicle.getAllSubscriptionResults()
         for vid, res in results.items():
             self.states[vid] = res
             self._track_path(vid, res[libsumo.VAR_LANE_ID])
         self._arrive_switched()
         # Vehicles moved by moveTo report their new lane only after the next read; refresh them.
-        for vid in libsumo.simulation.getDepartedIDList():
+        for vid in self.api.simulation.getDepartedIDList():
             info = self.vehicles.get(vid)
             if info is not None and info.start_s is not None and vid in self.states:
-                self.states[vid] = {v: _get(vid, v) for v in _VARS}
+                self.states[vid] = self._read(vid)
                 self._track_path(vid, self.states[vid][libsumo.VAR_LANE_ID])
 
     def _track_path(self, vid: str, lane: str) -> None:
@@ -138,12 +182,12 @@ class SumoSimulation:
         if target_id not in self.paths:
             return
         old, target = self.paths[pid], self.paths[target_id]
-        s = old.lane_starts[old.lanes.index(lane)] + libsumo.vehicle.getLanePosition(vid)
+        s = old.lane_starts[old.lanes.index(lane)] + self.api.vehicle.getLanePosition(vid)
         new_lane, new_pos = target.lane_at(min(s, target.s_exit - 0.01))
-        libsumo.vehicle.moveTo(vid, new_lane, new_pos)
+        self.api.vehicle.moveTo(vid, new_lane, new_pos)
         self.switched.add(vid)
         self.current_path[vid] = target_id
-        self.states[vid] = {v: _get(vid, v) for v in _VARS}
+        self.states[vid] = self._read(vid)
 
     def _arrive_switched(self) -> None:
         """End the trip of vehicles whose connection was switched, at the routes' arrivalPos.
@@ -160,14 +204,22 @@ class SumoSimulation:
                 self.switched.discard(vid)
                 continue
             if "_out_" in st[libsumo.VAR_LANE_ID] and st[libsumo.VAR_LANEPOSITION] >= self.exit_distance:
-                libsumo.vehicle.unsubscribe(vid)  # a removed vehicle's subscription fails the next step
-                libsumo.vehicle.remove(vid, libsumo.REMOVE_ARRIVED)
+                self.api.vehicle.unsubscribe(vid)  # a removed vehicle's subscription fails the next step
+                self.api.vehicle.remove(vid, libsumo.REMOVE_ARRIVED)
                 self.arrived[vid] = self.time
                 self.states.pop(vid, None)
                 self.commands.pop(vid, None)
                 self.switched.discard(vid)
 
     # --- read ------------------------------------------------------------------------------
+    def _read(self, vid: str) -> dict:
+        """One vehicle's state read directly (not from this step's subscription)."""
+        veh = self.api.vehicle
+        get = {libsumo.VAR_POSITION: veh.getPosition, libsumo.VAR_SPEED: veh.getSpeed,
+               libsumo.VAR_ACCELERATION: veh.getAcceleration, libsumo.VAR_ANGLE: veh.getAngle,
+               libsumo.VAR_LANE_ID: veh.getLaneID, libsumo.VAR_LANEPOSITION: veh.getLanePosition}
+        return {v: get[v](vid) for v in _VARS}
+
     def world(self) -> World:
         """A snapshot of every vehicle in the network, in the paper's frame."""
         ids = sorted(self.states)
@@ -212,8 +264,8 @@ class SumoSimulation:
                 self.vehicles[vid].exit_lane = lane
         for vid in decisions.release:
             if self.commands.pop(vid, None) is not None and vid in self.states:
-                libsumo.vehicle.setSpeed(vid, -1)  # SUMO's own driver model takes over again
-                libsumo.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
+                self.api.vehicle.setSpeed(vid, -1)  # SUMO's own driver model takes over again
+                self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
 
     def write(self) -> None:
         """Write this SUMO step's speed commands: v + a * step for every commanded vehicle.
@@ -223,29 +275,18 @@ class SumoSimulation:
         """
         for vid, accel in self.commands.items():
             v = self.states[vid][libsumo.VAR_SPEED]
-            libsumo.vehicle.setSpeed(vid, max(0.0, v + accel * self.step_length))
+            self.api.vehicle.setSpeed(vid, max(0.0, v + accel * self.step_length))
 
     def collisions(self) -> list[tuple[str, str]]:
-        return [(c.collider, c.victim) for c in libsumo.simulation.getCollisions()]
+        return [(c.collider, c.victim) for c in self.api.simulation.getCollisions()]
 
     def remaining(self) -> int:
         """Vehicles still in the network or waiting to be inserted."""
-        return libsumo.simulation.getMinExpectedNumber()
+        return self.api.simulation.getMinExpectedNumber()
 
-    @staticmethod
-    def close() -> None:
+    def close(self) -> None:
         try:
-            libsumo.close()
+            self.api.close()
         except Exception:  # closing a simulation that failed to start
             pass
 
-
-def _get(vid: str, var: int):
-    return {
-        libsumo.VAR_POSITION: libsumo.vehicle.getPosition,
-        libsumo.VAR_SPEED: libsumo.vehicle.getSpeed,
-        libsumo.VAR_ACCELERATION: libsumo.vehicle.getAcceleration,
-        libsumo.VAR_ANGLE: libsumo.vehicle.getAngle,
-        libsumo.VAR_LANE_ID: libsumo.vehicle.getLaneID,
-        libsumo.VAR_LANEPOSITION: libsumo.vehicle.getLanePosition,
-    }[var](vid)

@@ -1,0 +1,44 @@
+"""The net's drawable geometry, read with sumolib: lane and junction outlines, internal lane centre lines.
+
+Everything is in the net's frame, which is the paper frame (the junction centre at the origin, x
+east, y north, metres): the frame of a run's trajectories.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import sumolib
+
+
+@dataclass(frozen=True)
+class NetOutline:
+    lanes: list[np.ndarray]  # [m] outline polygon (n x 2) of every normal lane
+    junctions: list[np.ndarray]  # [m] outline polygon of every junction with an area
+    internal: list[np.ndarray]  # [m] centre line (n x 2) of every junction-internal lane (the connections)
+
+
+def lane_polygon(shape: np.ndarray, width: float) -> np.ndarray:
+    """[m] the outline of a lane ``width`` [m] wide around its centre polyline ``shape`` (n x 2)."""
+    d = np.gradient(shape, axis=0)
+    d /= np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
+    normal = np.column_stack([-d[:, 1], d[:, 0]]) * (width / 2)
+    return np.vstack([shape + normal, (shape - normal)[::-1]])
+
+
+def read_outline(net_file: str | Path) -> NetOutline:
+    """The outline of ``net_file``'s lanes and junctions (sumolib, with internal lanes)."""
+    net = sumolib.net.readNet(str(net_file), withInternal=True)
+    lanes, internal = [], []
+    for edge in net.getEdges(withInternal=True):
+        for lane in edge.getLanes():
+            shape = np.asarray([p[:2] for p in lane.getShape()], float)
+            if edge.getFunction() == "internal":
+                internal.append(shape)
+            else:
+                lanes.append(lane_polygon(shape, lane.getWidth()))
+    junctions = [np.asarray([p[:2] for p in node.getShape()], float) for node in net.getNodes()
+                 if len(node.getShape()) >= 3]
+    return NetOutline(lanes=lanes, junctions=junctions, internal=internal)
