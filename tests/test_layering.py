@@ -24,7 +24,7 @@ import intersection_cosim
 
 PACKAGE = "intersection_cosim"
 ROOT = Path(intersection_cosim.__file__).resolve().parent
-LAYERS = ("errors", "settings", "network", "models", "games", "control", "scenario", "sim", "results", "report",
+LAYERS = ("errors", "settings", "colors", "network", "models", "games", "control", "scenario", "sim", "results", "report",
           "experiments", "cli", "__main__")
 PURE = ("models", "games")  # decision models and solvers: no simulator, no controller, no output
 NOT_IN_PURE = ("control", "sim", "scenario", "results", "report", "experiments", "cli")

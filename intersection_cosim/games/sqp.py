@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import Mapping, NamedTuple, Sequence
 
 import numpy as np
 
@@ -65,6 +65,28 @@ class SQPOutcome:
     cost0: float = math.nan  # [-] true cost at the start plan (after keep_behind)
 
 
+class _Box(NamedTuple):
+    """The QP's bounds: rows 0..N-1 the accelerations (rewritten per trust region), N..2N-1 the
+    speed rows; ``sum_lo``, ``sum_hi`` [m/s^2] bound sum(a) so that 0 <= v <= v_cap."""
+
+    l: np.ndarray
+    u: np.ndarray
+    sum_lo: float
+    sum_hi: float
+
+
+class _Region(NamedTuple):
+    """One trust-region step's outcome (the inner loop of an SQP iteration)."""
+
+    a: np.ndarray  # [m/s^2] the iterate after the step (unchanged if none was accepted)
+    cost: float  # [-] its true cost
+    delta: float  # [m/s^2] the radius to go on with
+    converged: bool
+    qps: int  # QPs solved
+    sol: object  # OSQP's last solution
+    x_qp: np.ndarray  # [m/s^2] its plan, projected onto the feasible set
+
+
 def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs: GameSettings,
                       max_iter: int, trust_region: float | None = None,
                       duals: np.ndarray | None = None,
@@ -73,10 +95,9 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
 
     ``hessian``: a model Hessian computed near ``a0`` to use in the first iteration instead of
     a fresh one (the gradient is always exact; the caller decides when the curvature is still
-    representative, see ``GameSettings.hessian_refresh``). Raises :class:`SolverFailure` when
+    representative, see ``SolverSettings.hessian_refresh``). Raises :class:`SolverFailure` when
     OSQP does not solve a QP or a value is not finite.
     """
-    n, dt = obj.n, obj.dt
     a = obj.keep_behind(np.array(a0, dtype=float))
     fresh = None
     if hessian is None or not obj.coupled:
@@ -89,85 +110,112 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
     c_start = c
     exact = not obj.coupled
     delta = gs.solver.trust_region_max if exact else (trust_region or gs.solver.trust_region)
-    l, u = np.empty(2 * n), np.empty(2 * n)
-    l[n:], u[n:] = ws.speed_rows(obj.v0, obj.v_cap, dt)
-    lo, hi = l[:n], u[:n]
-    a_min, a_max = gs.problem.a_min, gs.problem.a_max
-    sum_lo, sum_hi = -obj.v0 / dt, (obj.v_cap - obj.v0) / dt  # bounds of sum(a) for 0 <= v <= v_cap
-    qp = 0
-    it = 0
-    converged = False
-    y = duals
-    x_qp = None
+    box = _box(obj, ws)
+    qp, it, converged, y, x_qp = 0, 0, False, duals, None
     while it < max_iter:
         it += 1
         if it > 1:
             g, H = obj.model(a)
             fresh = (H, a)
-        while True:
-            np.maximum(a - delta, a_min, out=lo)
-            np.minimum(a + delta, a_max, out=hi)
-            sol = ws.solve(H, g, a, l, u, y0=duals)
-            qp += 1
-            if not sol.ok:
-                raise SolverFailure(f"OSQP: {sol.status}")
-            duals = None
-            y = sol
-            # ADMM solutions violate bounds by up to ~eps: project onto the exact feasible set
-            x_qp = sol.x
-            np.maximum(x_qp, a_min, out=x_qp)
-            np.minimum(x_qp, a_max, out=x_qp)
-            cs = x_qp.cumsum()
-            if cs.min() < sum_lo or cs.max() > sum_hi:
-                x_qp = project_accelerations(x_qp, obj.v0, obj.v_cap, gs)
-            d = x_qp - a
-            step = float(abs(d).max())
-            pred = -float(g @ d + 0.5 * (d @ sol.H @ d))
-            if step < gs.solver.br_step_tol or pred <= gs.solver.br_rel_decrease_tol * max(abs(c), 1e-9):
-                # stationary for the model: keep the tiny step only if it does not raise the cost
-                if step > 0.0:
-                    c_new = float(obj.cost(x_qp))
-                    if c_new <= c:
-                        a, c = x_qp, c_new
-                converged = True
-                break
-            c_new = float(obj.cost(x_qp))
-            if not math.isfinite(c_new):
-                raise SolverFailure("non-finite cost")
-            alpha = 1.0
-            if c_new > c - gs.solver.armijo * pred:
-                alpha = 0.0
-                if gs.solver.line_search_steps > 0 and not exact:
-                    alphas = 0.5 ** np.arange(1, gs.solver.line_search_steps + 1)
-                    trial = obj.cost(a[None, :] + alphas[:, None] * d[None, :])
-                    ok = np.nonzero(trial <= c - gs.solver.armijo * alphas * pred)[0]
-                    if ok.size:
-                        alpha, c_new = float(alphas[ok[0]]), float(trial[ok[0]])
-            if alpha > 0.0:
-                ratio = (c - c_new) / pred
-                a = x_qp if alpha == 1.0 else a + alpha * d
-                c = c_new
-                if alpha < 1.0:
-                    delta = max(alpha * step, gs.solver.trust_region_min)
-                elif ratio > 0.75 and step > 0.9 * delta:
-                    delta = min(2.0 * delta, gs.solver.trust_region_max)
-                elif ratio < 0.25:
-                    delta = max(0.5 * delta, gs.solver.trust_region_min)
-                if exact or alpha * step < gs.solver.br_step_tol:
-                    converged = True
-                break
-            if exact:  # the exact model's optimum does not lower the cost: a is optimal
-                converged = True
-                break
-            delta = 0.25 * min(delta, step)
-            if delta < gs.solver.trust_region_min:
-                converged = True  # no decrease in any region: a local minimum to tolerance
-                break
+        region = _trust_region_step(obj, ws, gs, box, a, c, g, H, delta, duals, exact)
+        duals = None
+        a, c, delta, converged = region.a, region.cost, region.delta, region.converged
+        qp, y, x_qp = qp + region.qps, region.sol, region.x_qp
         if converged:
             break
     if y is not None and not isinstance(y, np.ndarray):
         y = y.y  # multipliers of the last QP (converted only once)
     return SQPOutcome(a, c, it, qp, converged, delta, y, fresh, x_qp, c_start)
+
+
+def _box(obj: PlayerObjective, ws: QPWorkspace) -> _Box:
+    n, dt = obj.n, obj.dt
+    l, u = np.empty(2 * n), np.empty(2 * n)
+    l[n:], u[n:] = ws.speed_rows(obj.v0, obj.v_cap, dt)
+    return _Box(l, u, -obj.v0 / dt, (obj.v_cap - obj.v0) / dt)
+
+
+def _solve_qp(obj: PlayerObjective, ws: QPWorkspace, gs: GameSettings, box: _Box, a: np.ndarray, g, H,
+              delta: float, duals):
+    """OSQP's solution of the model QP inside |x - a| <= ``delta``, and its plan projected onto
+    the exact feasible set (ADMM solutions violate bounds by up to ~eps)."""
+    n = obj.n
+    a_min, a_max = gs.problem.a_min, gs.problem.a_max
+    np.maximum(a - delta, a_min, out=box.l[:n])
+    np.minimum(a + delta, a_max, out=box.u[:n])
+    sol = ws.solve(H, g, a, box.l, box.u, y0=duals)
+    if not sol.ok:
+        raise SolverFailure(f"OSQP: {sol.status}")
+    x_qp = sol.x
+    np.maximum(x_qp, a_min, out=x_qp)
+    np.minimum(x_qp, a_max, out=x_qp)
+    cs = x_qp.cumsum()
+    if cs.min() < box.sum_lo or cs.max() > box.sum_hi:
+        x_qp = project_accelerations(x_qp, obj.v0, obj.v_cap, gs)
+    return sol, x_qp
+
+
+def _trust_region_step(obj: PlayerObjective, ws: QPWorkspace, gs: GameSettings, box: _Box, a: np.ndarray,
+                       c: float, g, H, delta: float, duals, exact: bool) -> _Region:
+    """Solve the model QP, shrinking the region until a step lowers the true cost enough, the
+    model is stationary, or the region falls below ``trust_region_min``."""
+    sv = gs.solver
+    qps = 0
+    while True:
+        sol, x_qp = _solve_qp(obj, ws, gs, box, a, g, H, delta, duals)
+        qps += 1
+        duals = None
+        d = x_qp - a
+        step = float(abs(d).max())
+        pred = -float(g @ d + 0.5 * (d @ sol.H @ d))
+        if step < sv.br_step_tol or pred <= sv.br_rel_decrease_tol * max(abs(c), 1e-9):
+            # stationary for the model: keep the tiny step only if it does not raise the cost
+            if step > 0.0:
+                c_new = float(obj.cost(x_qp))
+                if c_new <= c:
+                    a, c = x_qp, c_new
+            return _Region(a, c, delta, True, qps, sol, x_qp)
+        alpha, c_new = _line_search(obj, gs, a, c, d, pred, x_qp, exact)
+        if alpha > 0.0:
+            delta = _new_radius(sv, delta, alpha, step, (c - c_new) / pred)
+            a = x_qp if alpha == 1.0 else a + alpha * d
+            return _Region(a, c_new, delta, exact or alpha * step < sv.br_step_tol, qps, sol, x_qp)
+        if exact:  # the exact model's optimum does not lower the cost: a is optimal
+            return _Region(a, c, delta, True, qps, sol, x_qp)
+        delta = 0.25 * min(delta, step)
+        if delta < sv.trust_region_min:  # no decrease in any region: a local minimum to tolerance
+            return _Region(a, c, delta, True, qps, sol, x_qp)
+
+
+def _line_search(obj: PlayerObjective, gs: GameSettings, a: np.ndarray, c: float, d: np.ndarray, pred: float,
+                 x_qp: np.ndarray, exact: bool) -> tuple[float, float]:
+    """(alpha, true cost at a + alpha d): the full step if it meets Armijo's condition, else the
+    first halving that does; alpha = 0 when none does."""
+    sv = gs.solver
+    c_new = float(obj.cost(x_qp))
+    if not math.isfinite(c_new):
+        raise SolverFailure("non-finite cost")
+    if c_new <= c - sv.armijo * pred:
+        return 1.0, c_new
+    if sv.line_search_steps > 0 and not exact:
+        alphas = 0.5 ** np.arange(1, sv.line_search_steps + 1)
+        trial = obj.cost(a[None, :] + alphas[:, None] * d[None, :])
+        ok = np.nonzero(trial <= c - sv.armijo * alphas * pred)[0]
+        if ok.size:
+            return float(alphas[ok[0]]), float(trial[ok[0]])
+    return 0.0, c_new
+
+
+def _new_radius(sv, delta: float, alpha: float, step: float, ratio: float) -> float:
+    """[m/s^2] the trust region after an accepted step of ``alpha`` and size ``step`` whose true
+    decrease is ``ratio`` times the predicted one."""
+    if alpha < 1.0:
+        return max(alpha * step, sv.trust_region_min)
+    if ratio > 0.75 and step > 0.9 * delta:
+        return min(2.0 * delta, sv.trust_region_max)
+    if ratio < 0.25:
+        return max(0.5 * delta, sv.trust_region_min)
+    return delta
 
 
 def _others(problem: Problem, p: int, others_plans, gs: GameSettings) -> list[Plan]:

@@ -38,15 +38,16 @@ outcome: the follower is at its best response there), with a message saying so.
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 
-import numpy as np
-from scipy.linalg import lapack
+from typing import NamedTuple
 
+import numpy as np
+
+from intersection_cosim.games.follower_qp import FollowerQP, active_set
 from intersection_cosim.games.sqp import SolverFailure, sqp_best_response
-from intersection_cosim.games.nash import WarmStart, EquilibriumSolve, warm_list, failure_result, nash_equilibrium
+from intersection_cosim.games.nash import EquilibriumSolve, WarmStart, failure_result, nash_equilibrium, warm_list
 from intersection_cosim.games.problem import GameResult, Plan, Problem
 from intersection_cosim.games.qp import workspace
 from intersection_cosim.games.settings import GameSettings
@@ -65,116 +66,6 @@ def stackelberg_leader(problem: Problem, model_settings: ModelSettings | None = 
             tcp_j = (it.s_cp_j - pj.s0) / max(pj.v0, ms.tcp_speed_floor)
             return it.i if tcp_i <= tcp_j else it.j
     return 0
-
-
-def _active_set(x: np.ndarray, v0: float, v_cap: float, gs: GameSettings) -> np.ndarray:
-    """Signs of the active physical rows at x: +1 upper, -1 lower, 0 inactive; rows [I; Lv]."""
-    n, dt = len(x), gs.problem.dt
-    tol = gs.solver.active_tol
-    rows = np.concatenate((x, np.cumsum(x)))
-    lo = np.concatenate((np.full(n, gs.problem.a_min), np.full(n, -v0 / dt)))
-    hi = np.concatenate((np.full(n, gs.problem.a_max), np.full(n, (v_cap - v0) / dt)))
-    sign = np.zeros(2 * n, dtype=int)
-    sign[rows >= hi - tol] = 1
-    sign[rows <= lo + tol] = -1
-    return sign
-
-
-@functools.lru_cache(maxsize=8)
-def _rows(n: int) -> np.ndarray:
-    """The QP's constraint rows [I; Lv] (input box, then cumulative sums for the speeds)."""
-    A = np.vstack([np.eye(n), np.tril(np.ones((n, n)))])
-    A.setflags(write=False)
-    return A
-
-
-def _spd_solve(S: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """Solve S X = B for symmetric positive definite S (LAPACK dposv), least squares if singular."""
-    _c, X, info = lapack.dposv(S, B)
-    if info != 0:
-        X = np.linalg.lstsq(S, B, rcond=None)[0]
-    return X
-
-
-class _Follower:
-    """The follower's QP around (aF, aL) and its affine response x(y) = x0 + K (y - aL).
-
-    KKT system of the QP for the active rows E x = e (rows of A = [I; Lv]) solved with the
-    Schur complement S = E H^-1 E^T (H = H_FF is positive definite: it contains the comfort
-    term): x = x_u - H^-1 E^T S^-1 (E x_u - e), x_u the unconstrained minimiser.
-    """
-
-    def __init__(self, n: int, v0: float, v_cap: float, gs: GameSettings):
-        self.n, self.gs = n, gs
-        dt = gs.problem.dt
-        self.A = _rows(n)
-        self.lo, self.hi = np.empty(2 * n), np.empty(2 * n)
-        self.lo[:n], self.lo[n:] = gs.problem.a_min, -v0 / dt
-        self.hi[:n], self.hi[n:] = gs.problem.a_max, (v_cap - v0) / dt
-
-    def set_model(self, aF, aL, gF, H_FF, H_FL):
-        n = self.n
-        self.aL = aL
-        # [H^-1 | H^-1 H_FL | unconstrained minimiser at y = aL], one factorisation
-        rhs = np.empty((n, 2 * n + 1))
-        rhs[:, :n] = np.eye(n)
-        rhs[:, n:2 * n] = H_FL
-        rhs[:, 2 * n] = H_FF @ aF - gF
-        X = _spd_solve(H_FF, rhs)
-        self.Hinv, self.Z, self.xu0 = X[:, :n], X[:, n:2 * n], X[:, 2 * n]
-        self.HinvAT = self.Hinv @ self.A.T  # H^-1 A^T, columns for every row of A
-
-    def solve_active(self, sign: np.ndarray, y: np.ndarray, need_K: bool):
-        """QP solution at leader plan y, active set ``sign`` (+1 upper, -1 lower, 0 free) refined
-        until consistent (multiplier signs, primal feasibility).
-
-        Returns (x, sign, K, lam, Lam): with ``need_K`` also the affine maps of the solution and
-        of the active multipliers in y for this active set, x(y') = x + K (y' - y),
-        lam(y') = lam + Lam (y' - y); else K = Lam = None.
-        """
-        n = self.n
-        xu = self.xu0 - self.Z @ (y - self.aL)
-        sign = sign.copy()
-        for _ in range(2 * n):
-            act = np.nonzero(sign)[0]
-            if act.size:
-                E = self.A[act]
-                HE = self.HinvAT[:, act]
-                b = np.where(sign[act] > 0, self.hi[act], self.lo[act])
-                S = E @ HE
-                lam = _spd_solve(S, E @ xu - b)
-                x = xu - HE @ lam
-            else:
-                lam = np.zeros(0)
-                x = xu
-            # wrong-sign multiplier: upper bound needs lam >= 0, lower bound lam <= 0
-            signed = lam * sign[act]
-            Ax = self.A @ x
-            viol = np.maximum(Ax - self.hi, self.lo - Ax)
-            viol[act] = -np.inf
-            if act.size and signed.min() < -1e-10:
-                sign[act[int(np.argmin(signed))]] = 0
-            elif viol.max() > 1e-9:
-                k = int(np.argmax(viol))
-                sign[k] = 1 if Ax[k] > self.hi[k] else -1
-            else:
-                break
-        if not need_K:
-            return x, sign, None, lam, None
-        if act.size:
-            W = _spd_solve(S, E @ self.Z)
-            return x, sign, -(self.Z - HE @ W), lam, -W
-        return x, sign, -self.Z, lam, np.zeros((0, n))
-
-    def consistent(self, sign: np.ndarray, x: np.ndarray, lam: np.ndarray) -> bool:
-        """Does the active set ``sign`` still hold at (x, lam)?"""
-        act = np.nonzero(sign)[0]
-        if act.size and (lam * sign[act]).min() < -1e-10:
-            return False
-        Ax = self.A @ x
-        viol = np.maximum(Ax - self.hi, self.lo - Ax)
-        viol[act] = -np.inf
-        return bool(viol.max() <= 1e-9)
 
 
 def stackelberg_equilibrium(problem: Problem, settings: GameSettings | None = None,
@@ -233,140 +124,195 @@ def stackelberg_equilibrium(problem: Problem, settings: GameSettings | None = No
                               game.qp_count if game else 0, L)
 
 
+class _LeaderStep(NamedTuple):
+    """The leader's QP step with the follower's affine answer to it."""
+
+    y: np.ndarray  # [m/s^2] the leader's new plan
+    x0: np.ndarray  # [m/s^2] the follower's answer at the current leader plan
+    x_y: np.ndarray  # [m/s^2] the follower's predicted answer at y
+    gr: np.ndarray  # gradient of the leader's reduced model
+    sol: object  # OSQP's solution of the leader's QP
+    sign: np.ndarray  # the follower's active set to start the next attempt from
+
+
+class _Accepted(NamedTuple):
+    plans: list  # the new plans of both players
+    cost: float  # [-] the leader's true cost of them
+    follower_settled: bool
+    follower: object  # the follower's SQPOutcome
+    step: float  # [m/s^2] the accepted leader step
+
+
+class _LeaderIteration:
+    """The leader's iteration (module docstring) for leader ``L`` and follower ``F`` of ``game``."""
+
+    def __init__(self, game: EquilibriumSolve, L: int, F: int):
+        self.game, self.gs, self.L, self.F = game, game.gs, L, F
+        self.objL, self.objF = game.objs[L], game.objs[F]
+        self.wsL = workspace(game.N, self.gs, ("stackelberg-leader", L))
+        self.wsF = game.ws[F]
+        self.n = game.N
+        self.y_duals = None  # multipliers that warm-start the first leader QP only
+
+    def follower_answer(self, plans_now, steps, duals=None):
+        """The follower's best response (``steps`` SQP steps) and whether it has settled."""
+        sv, objF = self.gs.solver, self.objF
+        objF.set_others(plans_now)
+        out = sqp_best_response(objF, plans_now[self.F].accelerations, self.wsF, self.gs, steps, duals=duals)
+        self.game.qp_count += out.qp_count
+        gain = (out.cost0 - out.cost) / max(abs(out.cost0), 1e-9)
+        moved = float(abs(out.a - plans_now[self.F].accelerations).max())
+        return out, out.converged or (gain < sv.nash_cost_rtol and moved < sv.nash_cost_guard)
+
+    def leader_cost(self, y, x) -> float:
+        pair = [None, None]
+        pair[self.L], pair[self.F] = self.objL.plan(y), self.objF.plan(x)
+        self.objL.set_others(pair)
+        return float(self.objL.cost(y))
+
+    def models(self, plans, follower: FollowerQP):
+        """The follower's model in (aF, aL) into ``follower``; the leader's in (aL, aF)."""
+        aL, aF = plans[self.L].accelerations, plans[self.F].accelerations
+        self.objF.set_others(plans)
+        gF, _, H_FF, H_FL, _ = self.objF.pair_model(aF, self.L, plans[self.L], partner_curvature=False)
+        self.objL.set_others(plans)
+        gL, gLF, H_LL, H_LF, H_FFL = self.objL.pair_model(aL, self.F, plans[self.F])
+        follower.set_model(aF, aL, gF, H_FF, H_FL)
+        return gL, gLF, H_LL, H_LF, H_FFL
+
+    def leader_qp(self, follower: FollowerQP, sign, aL, aF, model, delta: float, box) -> _LeaderStep:
+        """The leader's QP on its reduced model dy -> (dy, d0 + K dy), re-solved while the
+        follower's active set at the new leader plan differs from the assumed one."""
+        gs, n = self.gs, self.n
+        gL, gLF, H_LL, H_LF, H_FFL = model
+        l, u = box
+        for _update in range(gs.solver.active_set_max_updates + 1):
+            x0, sign_used, K, lam0, Lam = follower.solve_active(sign, aL, need_K=True)
+            d0 = x0 - aF
+            KH = K.T @ H_FFL
+            Hr = H_LL + H_LF @ K + K.T @ H_LF.T + KH @ K
+            Hr = 0.5 * (Hr + Hr.T)
+            gr = gL + K.T @ gLF + (H_LF + KH) @ d0
+            np.maximum(aL - delta, gs.problem.a_min, out=l[:n])
+            np.minimum(aL + delta, gs.problem.a_max, out=u[:n])
+            sol = self.wsL.solve(Hr, gr, aL, l, u, y0=self.y_duals)
+            self.y_duals = None
+            self.game.qp_count += 1
+            if not sol.ok:
+                raise SolverFailure(f"OSQP (leader): {sol.status}")
+            y = np.minimum(np.maximum(sol.x, gs.problem.a_min), gs.problem.a_max)
+            # the follower's QP at the new leader plan: does the active set still hold?
+            dy = y - aL
+            x_y = x0 + K @ dy
+            if follower.consistent(sign_used, x_y, lam0 + Lam @ dy):
+                break
+            x_y, sign, _K, _lam, _Lam = follower.solve_active(sign_used, y, need_K=False)
+        return _LeaderStep(y, x0, x_y, gr, sol, sign)
+
+    def try_step(self, plans, cL: float, qp: _LeaderStep, aL, step: float) -> _Accepted | None:
+        """The leader's step, or the first of its halves, that lowers its true cost with the
+        follower's true answer; a cheap pre-check with the follower's predicted answer (its QP
+        by KKT) first, so the follower solves only for a promising step."""
+        gs = self.gs
+        for alpha in (1.0, 0.5, 0.25)[:1 + gs.solver.line_search_steps]:
+            y_a = qp.y if alpha == 1.0 else aL + alpha * (qp.y - aL)
+            x_a = qp.x_y if alpha == 1.0 else np.clip(qp.x0 + alpha * (qp.x_y - qp.x0), gs.problem.a_min,
+                                                      gs.problem.a_max)
+            if self.leader_cost(y_a, x_a) < cL:
+                break
+        else:
+            return None
+        trial = list(plans)
+        trial[self.L] = self.objL.plan(y_a, qp.sol.y)
+        out, settled = self.follower_answer(trial, gs.solver.sqp_steps_per_iteration)
+        trial[self.F] = self.objF.plan(out.a, out.duals)
+        self.objL.set_others(trial)
+        c_new = float(self.objL.cost(y_a))
+        if not math.isfinite(c_new):
+            raise SolverFailure("non-finite leader cost")
+        return _Accepted(trial, c_new, settled, out, alpha * step) if c_new < cL else None
+
+    def iterate(self, plans, cL: float, follower: FollowerQP, x_last, delta: float, box):
+        """One leader iteration: (accepted step or None when the leader has settled, delta)."""
+        gs = self.gs
+        aL, aF = plans[self.L].accelerations, plans[self.F].accelerations
+        model = self.models(plans, follower)
+        sign = active_set(x_last, self.objF.v0, self.objF.v_cap, gs)
+        for _attempt in range(gs.solver.stackelberg_attempts):
+            qp = self.leader_qp(follower, sign, aL, aF, model, delta, box)
+            sign = qp.sign
+            dy = qp.y - aL
+            step = float(abs(dy).max())
+            pred = -float(qp.gr @ dy + 0.5 * (dy @ qp.sol.H @ dy))  # model decrease of the leader
+            if step < gs.solver.stackelberg_tol or pred < gs.solver.stackelberg_gain_rtol * abs(cL):
+                return None, delta  # the leader's best step is below tolerance or gains too little
+            accepted = self.try_step(plans, cL, qp, aL, step)
+            if accepted is not None:
+                return accepted, delta
+            delta = 0.25 * min(delta, step)
+            if delta < gs.solver.trust_region_min:
+                break
+        return None, delta
+
+
 def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int, deadline, warm: bool,
                       f_cost0: float | None = None):
     """The leader's iteration (module docstring); returns (plans, residuals, status, known
     costs of the final plans, None where not evaluated)."""
-    gs = game.gs
-    objL, objF = game.objs[L], game.objs[F]
-    wsL = workspace(game.N, gs, ("stackelberg-leader", L))
-    wsF = game.ws[F]
-    n, dt = game.N, gs.problem.dt
-
-    def follower_answer(plans_now, steps, duals=None):
-        """The follower's best response (``steps`` SQP steps) and whether it has settled."""
-        objF.set_others(plans_now)
-        out = sqp_best_response(objF, plans_now[F].accelerations, wsF, gs, steps, duals=duals)
-        game.qp_count += out.qp_count
-        gain = (out.cost0 - out.cost) / max(abs(out.cost0), 1e-9)
-        moved = float(abs(out.a - plans_now[F].accelerations).max())
-        settled = out.converged or (gain < gs.solver.nash_cost_rtol and moved < gs.solver.nash_cost_guard)
-        return out, settled
-
-    def leader_cost(y, x):
-        pair = [None, None]
-        pair[L], pair[F] = objL.plan(y), objF.plan(x)
-        objL.set_others(pair)
-        return float(objL.cost(y))
-
+    it = _LeaderIteration(game, L, F)
+    gs, sv, n = game.gs, game.gs.solver, game.N
     # the Nash point has the follower at its best response; a warm start (the previous step's
     # plans, shifted) first lets the follower answer the shifted leader plan
-    x_last = plans[F].accelerations
-    follower_settled = not warm
-    f_cost = f_cost0  # the follower's true cost of the current plans, when known
+    x_last, follower_settled, f_cost = plans[F].accelerations, not warm, f_cost0
     if warm:
-        out, follower_settled = follower_answer(plans, gs.solver.sqp_steps_per_iteration, plans[F].duals)
-        plans[F] = objF.plan(out.a, out.duals)
+        out, follower_settled = it.follower_answer(plans, sv.sqp_steps_per_iteration, plans[F].duals)
+        plans[F] = it.objF.plan(out.a, out.duals)
         x_last = out.x_qp if out.x_qp is not None else out.a
         f_cost = out.cost
-    objL.set_others(plans)
-    cL = float(objL.cost(plans[L].accelerations))
-    follower = _Follower(n, objF.v0, objF.v_cap, gs)
-    delta = gs.solver.trust_region
+    it.objL.set_others(plans)
+    cL = float(it.objL.cost(plans[L].accelerations))
+    follower = FollowerQP(n, it.objF.v0, it.objF.v_cap, gs)
+    delta = sv.trust_region
     l, u = np.empty(2 * n), np.empty(2 * n)
-    l[n:], u[n:] = wsL.speed_rows(objL.v0, objL.v_cap, dt)
-    y_duals = plans[L].duals
+    l[n:], u[n:] = it.wsL.speed_rows(it.objL.v0, it.objL.v_cap, gs.problem.dt)
+    it.y_duals = plans[L].duals
     residuals: list[float] = []
-    status = "iteration cap"
-    per_iteration = 0.0
-    for _ in range(gs.solver.stackelberg_max_iter):
+    status, per_iteration = "iteration cap", 0.0  # [s] the slowest iteration so far
+    for _ in range(sv.stackelberg_max_iter):
         start = time.perf_counter()
         if deadline is not None and start + per_iteration > deadline:
             status = "deadline"
             break
-        aL, aF = plans[L].accelerations, plans[F].accelerations
-        # follower's model in (aF, aL) and leader's model in (aL, aF)
-        objF.set_others(plans)
-        gF, _, H_FF, H_FL, _ = objF.pair_model(aF, L, plans[L], partner_curvature=False)
-        objL.set_others(plans)
-        gL, gLF, H_LL, H_LF, H_FFL = objL.pair_model(aL, F, plans[F])
-        follower.set_model(aF, aL, gF, H_FF, H_FL)
-        sign = _active_set(x_last, objF.v0, objF.v_cap, gs)
-        accepted = None
-        for _attempt in range(gs.solver.stackelberg_attempts):
-            for _update in range(gs.solver.active_set_max_updates + 1):
-                x0, sign_used, K, lam0, Lam = follower.solve_active(sign, aL, need_K=True)
-                d0 = x0 - aF
-                # leader's reduced model in y: dy -> (dy, d0 + K dy)
-                KH = K.T @ H_FFL
-                Hr = H_LL + H_LF @ K + K.T @ H_LF.T + KH @ K
-                Hr = 0.5 * (Hr + Hr.T)
-                gr = gL + K.T @ gLF + (H_LF + KH) @ d0
-                np.maximum(aL - delta, gs.problem.a_min, out=l[:n])
-                np.minimum(aL + delta, gs.problem.a_max, out=u[:n])
-                sol = wsL.solve(Hr, gr, aL, l, u, y0=y_duals)
-                y_duals = None
-                game.qp_count += 1
-                if not sol.ok:
-                    raise SolverFailure(f"OSQP (leader): {sol.status}")
-                y = np.minimum(np.maximum(sol.x, gs.problem.a_min), gs.problem.a_max)
-                # the follower's QP at the new leader plan: does the active set still hold?
-                dy = y - aL
-                x_y = x0 + K @ dy
-                if follower.consistent(sign_used, x_y, lam0 + Lam @ dy):
-                    break
-                x_y, sign, _K, _lam, _Lam = follower.solve_active(sign_used, y, need_K=False)
-            step = float(abs(y - aL).max())
-            dy = y - aL
-            pred = -float(gr @ dy + 0.5 * (dy @ sol.H @ dy))  # model decrease of the leader
-            if step < gs.solver.stackelberg_tol or pred < gs.solver.stackelberg_gain_rtol * abs(cL):
-                break  # the leader's best step is below tolerance or gains too little: settled
-            # cheap pre-check along the step with the follower's predicted answer (its QP by
-            # KKT): full step, then halves; the follower's true answer only for a promising one
-            for alpha in (1.0, 0.5, 0.25)[:1 + gs.solver.line_search_steps]:
-                y_a = y if alpha == 1.0 else aL + alpha * (y - aL)
-                x_a = x_y if alpha == 1.0 else np.clip(x0 + alpha * (x_y - x0), gs.problem.a_min, gs.problem.a_max)
-                if leader_cost(y_a, x_a) < cL:
-                    break
-            else:
-                alpha = 0.0
-            if alpha > 0.0:
-                trial = list(plans)
-                trial[L] = objL.plan(y_a, sol.y)
-                out, settled = follower_answer(trial, gs.solver.sqp_steps_per_iteration)
-                trial[F] = objF.plan(out.a, out.duals)
-                objL.set_others(trial)
-                c_new = float(objL.cost(y_a))
-                if not math.isfinite(c_new):
-                    raise SolverFailure("non-finite leader cost")
-                if c_new < cL:
-                    accepted = (trial, c_new, settled, out, alpha * step)
-                    break
-            delta = 0.25 * min(delta, step)
-            if delta < gs.solver.trust_region_min:
-                break
+        aF = plans[F].accelerations
+        accepted, delta = it.iterate(plans, cL, follower, x_last, delta, (l, u))
         if accepted is None:
             residuals.append(0.0)
             status = "converged"
             break
-        trial, c_new, follower_settled, out, step = accepted
+        out, step, follower_settled = accepted.follower, accepted.step, accepted.follower_settled
         f_cost = out.cost
         res = max(step, float(abs(out.a - aF).max()))
-        gain = (cL - c_new) / max(abs(cL), 1e-9)
-        plans, cL = trial, c_new
+        gain = (cL - accepted.cost) / max(abs(cL), 1e-9)
+        plans, cL = accepted.plans, accepted.cost
         x_last = out.x_qp if out.x_qp is not None else out.a
         if step > 0.9 * delta:
-            delta = min(2.0 * delta, gs.solver.trust_region_max)
+            delta = min(2.0 * delta, sv.trust_region_max)
         residuals.append(res)
         per_iteration = max(per_iteration, time.perf_counter() - start)
-        if res < gs.solver.stackelberg_tol or (res < gs.solver.nash_cost_guard and gain < gs.solver.nash_cost_rtol
-                                        and follower_settled):
+        if res < sv.stackelberg_tol or (res < sv.nash_cost_guard and gain < sv.nash_cost_rtol and follower_settled):
             status = "converged"
             break
-    known = [None, None]  # true costs of the final plans where already evaluated
-    known[L], known[F] = cL, f_cost
-    if not follower_settled:  # polish the follower to a full best response
-        out, _ = follower_answer(plans, gs.solver.br_max_sqp)
-        plans[F] = objF.plan(out.a, out.duals)
-        known[L], known[F] = None, out.cost
+    plans, known = _polish(it, plans, cL, f_cost, follower_settled)
     return plans, residuals, status, known
+
+
+def _polish(it: _LeaderIteration, plans, cL: float, f_cost, follower_settled: bool):
+    """The final plans and their known costs; an unsettled follower is first polished to a full
+    best response."""
+    known = [None, None]  # true costs of the final plans where already evaluated
+    known[it.L], known[it.F] = cL, f_cost
+    if not follower_settled:
+        out, _ = it.follower_answer(plans, it.gs.solver.br_max_sqp)
+        plans[it.F] = it.objF.plan(out.a, out.duals)
+        known[it.L], known[it.F] = None, out.cost
+    return plans, known

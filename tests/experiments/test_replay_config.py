@@ -10,7 +10,7 @@ import sumolib
 
 from intersection_cosim.experiments.files import REPLAY_DIR
 from intersection_cosim.experiments.run import run_scenario
-from intersection_cosim.report.sumo_outputs import read_tripinfo
+from intersection_cosim.results.sumo_outputs import read_tripinfo
 from intersection_cosim.scenario import load_scenario, with_overrides
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
