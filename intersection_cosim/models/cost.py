@@ -58,7 +58,7 @@ def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
     """J_s-lat = 1 / (TTC_lat^2 + eps) (Eq. 19), zero where ``active`` is False.
 
     ``active`` is False once either vehicle has passed the conflict point: the pair then has no
-    lateral cost (paper-notes.md).
+    lateral cost (the paper is silent on a passed point; our reading).
     """
     ttc = np.asarray(lateral_ttc(tcp_i, tcp_j), float)
     out = np.where(active, 1.0 / (np.square(ttc) + eps), 0.0)

@@ -6,7 +6,7 @@
   around the turning centre (Eq. 6); the lateral distance of a point (X, Y) is
   | |(X, Y) - (X_c, Y_c)| - |R| |.
 - Lambda = a (s - v t_p)^2 for 0 <= s <= v t_p and 0 otherwise, a = a0 exp(kappa) (Eq. 7 as
-  decided in paper-notes.md: the printed a (s - v t_p) is negative inside the preview length).
+  we read it: the printed a (s - v t_p) is negative inside the preview length).
   s [m] is the arc length along the predicted path from the vehicle to the point, so the field is
   largest at the vehicle and fades to zero at the preview distance v t_p; nothing lies behind it.
 - sigma = (b + c |delta_f|) s + d, d = W / 4 (Eq. 8).
@@ -39,7 +39,7 @@ def field_gain(kappa, settings: ModelSettings):
 
 
 def preview_amplitude(s, v, kappa, settings: ModelSettings):
-    """Lambda = a (s - v t_p)^2 for 0 <= s <= v t_p, else 0 (Eq. 7, paper-notes.md).
+    """Lambda = a (s - v t_p)^2 for 0 <= s <= v t_p, else 0 (Eq. 7 as we read it).
 
     ``s`` [m] arc length ahead of the vehicle along its predicted path, ``v`` [m/s].
     """

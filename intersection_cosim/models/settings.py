@@ -1,8 +1,8 @@
 """Model parameters of the paper's decision layer, one typed object with documented defaults.
 
 Every field can be set from a scenario file's ``[model]`` table; an unknown key is an error.
-The paper gives no numbers for most of these (paper-notes.md); the defaults are our calibration,
-chosen so that the paper's qualitative results hold (see README, "Model").
+The paper gives no numbers for most of these; the defaults are our calibration, chosen so that
+the paper's qualitative results hold (README, "Model parameters"; the history in docs/design.md).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from intersection_cosim.settings import non_negative, positive
 
 @dataclass(frozen=True)
 class ModelSettings:
-    # --- vehicle (paper gives no dimensions; paper-notes.md "Geometry") ---
+    # --- vehicle (the paper gives no dimensions) ---
     vehicle_length: float = 4.5  # [m] bumper to bumper
     vehicle_width: float = 1.8  # [m] W in Eq. 8 (d = W / 4)
     l_f: float = 1.35  # [m] centre of gravity to front axle (Eqs. 2-3)
@@ -24,12 +24,8 @@ class ModelSettings:
     a0: float = 1.0  # [-] field amplitude at kappa = 0; a = a0 * exp(kappa) (Eq. 7)
     b: float = 0.1  # [-] widening slope of the field with arc length when delta_f = 0 (Eq. 8)
     c: float = 0.5  # [1/rad] gain of |delta_f| in the widening (Eq. 8)
-    # [s] preview time of the prediction and of the field (Eq. 7). Calibrated on Case 1: the
-    # paper's conflict points lie 20-27 m from the start points, beyond v t_p at 3 s (16.5 m at
-    # 5.5 m/s), so no game was played until the yielding car had been stopped at its line by
-    # the safety filter whatever its kappa, and kappa did not order the min TTCs (B > A, D
-    # smallest). At 4 s every Case 1 and 2 ordering holds with k_lat = 5 (3.5 s: B > A fails;
-    # 4.5 s: V1 is no faster in C under Nash; 5 s: Case 2 A's V3 keeps the inner exit)
+    # [s] preview time of the prediction and of the field (Eq. 7): long enough that the trigger
+    # sees the paper's conflict points (20-27 m ahead) from the first second
     t_p: float = 4.0
     # The prediction is along the paths (models/prediction.py), in closed form: no sampled rollout
     # or polynomial fit reads these two. They stay so scenario files that set them still load and
@@ -48,17 +44,11 @@ class ModelSettings:
     # --- running cost, Eqs. 13-24 ---
     eps: float = 0.25  # [s^2] epsilon in J_log and J_lat (Eqs. 15, 19)
     k_log: float = 1.0  # [-] weight of longitudinal safety J_log (Eq. 14)
-    # [-] weight of lateral safety J_lat (Eq. 14). At 1, J_lat at the TTC_lat of these cases
-    # (~2 s: 1 / (4 + eps) = 0.24 a step) is small against J_e (0.04 (v - 10)^2 ~ 1.4), so
-    # the games hardly traded speed for TTC and kappa did not order the min TTCs even with a
-    # game at every step. Calibrated with t_p: 5 and 6 hold every ordering of Cases 1 and 2
-    # under both equilibria (3 and 4: the V1-V2 min TTC of D is not the smallest under Nash;
-    # 10 and 20: B's min TTCs are no larger than A's), 5 with the wider margins
+    # [-] weight of lateral safety J_lat (Eq. 14): strong enough against J_e at TTC_lat ~2 s for
+    # the games to trade speed for margin by kappa (calibrated with t_p)
     k_lat: float = 5.0
     k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
-    k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23). Calibrated on
-    #                        Case 2: V3 takes the middle exit at kappa 0.85 (A) for k_y_lk <= 0.01 and
-    #                        keeps the inner one at 0.2 (B) for all values tried (0.005-0.05)
+    k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23; calibrated on Case 2)
     k_phi_lk: float = 0.5  # [1/rad^2] weight of the heading error in J_lk (Eq. 23)
     k_e: float = 0.04  # [s^2/m^2] weight of the speed error in J_e (Eq. 24)
     v_max: float = 10.0  # [m/s] maximum (desired) speed in J_e (Eq. 24)

@@ -1,6 +1,6 @@
 """The intersection's layout: arms, lanes, movements and the paper's coordinate frame.
 
-Frame (paper-notes.md, "Geometry"): origin at the intersection centre, x east, y north, metres.
+Frame: origin at the intersection centre, x east, y north, metres.
 Right-hand traffic. Each arm has a three-lane road in and a three-lane road out, lane width 4 m,
 so lane centres sit at +-2, +-6, +-10 m from the arm's axis (innermost first).
 

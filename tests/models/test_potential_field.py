@@ -1,4 +1,4 @@
-"""Gaussian potential field, Eqs. 5-8 (with the decisions of paper-notes.md)."""
+"""Gaussian potential field, Eqs. 5-8 (with our reading of Eq. 7)."""
 
 from __future__ import annotations
 
