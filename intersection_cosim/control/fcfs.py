@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -126,6 +127,53 @@ class Grant:
     slots: dict = field(default_factory=dict)  # point key -> (enter, leave) [s]
 
 
+class _Arrivals(NamedTuple):
+    """Every vehicle's earliest arrival at its stop line, one step (arrays over the world's vehicles)."""
+
+    s_stop: np.ndarray  # [m] its path's stop line
+    d: np.ndarray  # [m] distance to the stop line (<= 0: past it)
+    past: np.ndarray  # bool: past the stop line, or not approaching (role other than "ready")
+    v: np.ndarray  # [m/s] speed, clipped at 0
+    t_e: np.ndarray  # [s] earliest arrival (now, past the line); never before the vehicle ahead
+    v_e: np.ndarray  # [m/s] speed at the earliest arrival
+    cannot_stop: np.ndarray  # bool: can no longer stop before the line at max_brake
+
+
+def _not_before_vehicle_ahead(world: World, past: np.ndarray, t_e: np.ndarray) -> np.ndarray:
+    """``t_e`` [s] with each approaching vehicle's arrival at least 1 ms after that of the vehicle
+    ahead on its approach lane (a new array)."""
+    t_e = t_e.copy()
+    by_lane: dict[str, list[int]] = {}
+    for k in range(len(world)):
+        if not past[k]:
+            by_lane.setdefault(world.lanes[k] if world.lanes else world.path_ids[k], []).append(k)
+    for ks in by_lane.values():
+        ks.sort(key=lambda k: -world.s[k])
+        for a, b in zip(ks, ks[1:]):
+            t_e[b] = max(t_e[b], t_e[a] + 1e-3)
+    return t_e
+
+
+class _Reservations:
+    """The intervals reserved so far in one step: (enter, leave) [s] at point keys, in grant order."""
+
+    def __init__(self):
+        self.enter: list[float] = []
+        self.leave: list[float] = []
+        self.point: list[int] = []
+
+    def add(self, keys: np.ndarray, enter: np.ndarray, leave: np.ndarray) -> None:
+        for key, e, l_ in zip(keys, enter, leave):
+            self.enter.append(float(e))
+            self.leave.append(float(l_))
+            self.point.append(int(key))
+
+    def first_free(self, enter: np.ndarray, leave: np.ndarray, keys: np.ndarray, buffer: float) -> int:
+        """:func:`free_slot` of the candidates (enter, leave) at points ``keys`` against these."""
+        return free_slot(enter, leave, np.asarray(self.enter), np.asarray(self.leave), keys,
+                         np.asarray(self.point, np.int64), buffer)
+
+
 class FcfsController:
     """First-come-first-served reservation controller (see the module docstring)."""
 
@@ -189,19 +237,30 @@ class FcfsController:
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
-        fs, ms = self.fs, self.model
-        period = self.ctx.control_period
-        n, ids, t = len(world), world.ids, world.time
-        decisions = Decisions()
-        active = [k for k in range(n) if world.role[k] != "outside"]
-        decisions.release = sorted(self.controlled - {ids[k] for k in active})
+        active = [k for k in range(len(world)) if world.role[k] != "outside"]
+        release = self._forget_departed(world, active)
+        arrivals = self._arrivals(world)
+        paths_present = set(world.path_ids)
+        order, busy = self._keep_committed(world, arrivals, paths_present)  # rule 1
+        self._grant_in_order(world, arrivals, order, paths_present, busy)  # rule 2
+        accel = self._commands(world, arrivals, active)  # rule 3
+        self._leader_caps(world, active, accel)
+        return self._decisions(world, active, release, accel, arrivals.v)
+
+    def _forget_departed(self, world: World, active: list[int]) -> list[str]:
+        """Drop the grants of vehicles no longer in the world; return the ids to release to SUMO
+        (controlled last step, ``outside`` or gone now), sorted (rule 4)."""
+        ids = world.ids
+        release = sorted(self.controlled - {ids[k] for k in active})
         self.controlled = {ids[k] for k in active}
         present = set(ids)
         self.grants = {v: g for v, g in self.grants.items() if v in present}
         self.committed &= present
-        vmax = ms.v_max
+        return release
 
-        # earliest arrival of every vehicle; commitment
+    def _arrivals(self, world: World) -> _Arrivals:
+        """Every vehicle's earliest arrival at its stop line and whether it can still stop."""
+        fs, vmax, t = self.fs, self.model.v_max, world.time
         s_stop = np.array([self.paths[p].s_stop for p in world.path_ids])
         d = s_stop - world.s
         past = (d <= 0) | np.array([r != "ready" for r in world.role], dtype=bool)
@@ -209,99 +268,116 @@ class FcfsController:
         t_e = np.where(past, t, t + time_to_cover(d, v, fs.comfort_accel, vmax))
         v_e = np.where(past, v, np.minimum(vmax, np.sqrt(v * v + 2 * fs.comfort_accel * np.maximum(d, 0))))
         cannot_stop = v * v / (2 * fs.max_brake) >= d - fs.follow_gap
-        # on one approach lane, never earlier than the vehicle ahead
-        by_lane: dict[str, list[int]] = {}
-        for k in range(n):
-            if not past[k]:
-                by_lane.setdefault(world.lanes[k] if world.lanes else world.path_ids[k], []).append(k)
-        for ks in by_lane.values():
-            ks.sort(key=lambda k: -world.s[k])
-            for a, b in zip(ks, ks[1:]):
-                t_e[b] = max(t_e[b], t_e[a] + 1e-3)
+        return _Arrivals(s_stop, d, past, v, _not_before_vehicle_ahead(world, past, t_e), v_e, cannot_stop)
 
-        paths_present = set(world.path_ids)
-        busy_in: list[float] = []
-        busy_out: list[float] = []
-        busy_pt: list[int] = []
-        busy_vehicle: list[str] = []
-
-        def reserve(vid, keys, enter, leave):
-            for key, e, l_ in zip(keys, enter, leave):
-                busy_in.append(float(e))
-                busy_out.append(float(l_))
-                busy_pt.append(int(key))
-                busy_vehicle.append(vid)
-
-        # 1. committed vehicles keep their grants (widened by the prediction from now)
+    def _keep_committed(self, world: World, arr: _Arrivals,
+                        paths_present: set[str]) -> tuple[list[int], _Reservations]:
+        """Rule 1: re-reserve the committed vehicles' points (granted slot widened by the prediction
+        from now). Returns the indices of the other vehicles (to be planned, in world order) and
+        the reservations made."""
+        busy = _Reservations()
         order = []
-        for k in range(n):
-            vid = ids[k]
+        for k in range(len(world)):
+            vid = world.ids[k]
             grant = self.grants.get(vid)
-            if not (past[k] or vid in self.committed or (cannot_stop[k] and grant is not None)):
+            if not (arr.past[k] or vid in self.committed or (arr.cannot_stop[k] and grant is not None)):
                 order.append(k)
                 continue
             keys, s_in, s_out = self._points(world.path_ids[k], paths_present)
             if grant is None:  # first seen already committed: its grant is its prediction
-                grant = Grant(float(t_e[k]), float(v_e[k]), True)
+                grant = Grant(float(arr.t_e[k]), float(arr.v_e[k]), True)
                 self.grants[vid] = grant
-            if past[k]:
-                enter, leave = self._occupancy(t, v[k], float(world.s[k]), s_in, s_out)
-            else:  # still approaching: it flies its granted arrival
-                enter, leave = self._occupancy(grant.t_arrive, grant.v_arrive, float(s_stop[k]), s_in, s_out)
-                _, late = self._occupancy(t_e[k], v_e[k], float(s_stop[k]), s_in, s_out)
-                leave = np.maximum(leave, late)
-            for m, key in enumerate(keys):
-                if int(key) in grant.slots:
-                    ge, gl = grant.slots[int(key)]
-                    enter[m], leave[m] = min(enter[m], ge), max(leave[m], gl)
+            enter, leave = self._committed_occupancy(world, k, arr, grant, keys, s_in, s_out)
             if vid not in self.committed:
-                self.committed.add(vid)
-                self.history[vid] = {int(kk): (float(e), float(l_)) for kk, e, l_ in zip(keys, enter, leave)}
-                self.history[vid].update(grant.slots)
+                self._commit(vid, grant, keys, enter, leave)
             keep = world.s[k] <= s_out  # rear not yet past the point
             grant.slots.update({int(kk): (float(e), float(l_)) for kk, e, l_ in
                                 zip(keys[keep], enter[keep], leave[keep])})
-            reserve(vid, keys[keep], enter[keep], leave[keep])
+            busy.add(keys[keep], enter[keep], leave[keep])
+        return order, busy
 
-        # 2. approaching vehicles, first come first served
-        order.sort(key=lambda k: (t_e[k], ids[k]))
+    def _committed_occupancy(self, world: World, k: int, arr: _Arrivals, grant: Grant,
+                             keys: np.ndarray, s_in: np.ndarray, s_out: np.ndarray):
+        """(enter, leave) [s] of committed vehicle ``k`` at its points: its prediction from now
+        (past the line) or from its granted arrival, late-arrival widened, united with its slots."""
+        if arr.past[k]:
+            enter, leave = self._occupancy(world.time, arr.v[k], float(world.s[k]), s_in, s_out)
+        else:  # still approaching: it flies its granted arrival
+            s_stop = float(arr.s_stop[k])
+            enter, leave = self._occupancy(grant.t_arrive, grant.v_arrive, s_stop, s_in, s_out)
+            _, late = self._occupancy(arr.t_e[k], arr.v_e[k], s_stop, s_in, s_out)
+            leave = np.maximum(leave, late)
+        for m, key in enumerate(keys):
+            if int(key) in grant.slots:
+                ge, gl = grant.slots[int(key)]
+                enter[m], leave[m] = min(enter[m], ge), max(leave[m], gl)
+        return enter, leave
+
+    def _commit(self, vid: str, grant: Grant, keys: np.ndarray, enter: np.ndarray, leave: np.ndarray) -> None:
+        """Mark ``vid`` committed and record its slots at that moment in ``history``."""
+        self.committed.add(vid)
+        self.history[vid] = {int(kk): (float(e), float(l_)) for kk, e, l_ in zip(keys, enter, leave)}
+        self.history[vid].update(grant.slots)
+
+    def _grant_in_order(self, world: World, arr: _Arrivals, order: list[int], paths_present: set[str],
+                        busy: _Reservations) -> None:
+        """Rule 2: grant the vehicles ``order`` (indices), by earliest arrival then id, each the
+        first arrival whose slots collide with no reservation in ``busy`` (which each grant joins)."""
+        fs = self.fs
         n_cand = int(math.ceil(fs.max_delay / fs.slot_step)) + 1
-        for k in order:
-            vid = ids[k]
+        for k in sorted(order, key=lambda k: (arr.t_e[k], world.ids[k])):
             keys, s_in, s_out = self._points(world.path_ids[k], paths_present)
-            cand_t = t_e[k] + fs.slot_step * np.arange(n_cand)
-            dt = np.maximum(cand_t - t, 1e-6)
-            v_lin = 2.0 * max(d[k], 0.0) / dt - v[k]
-            cand_v = np.where(v_lin >= 0, np.minimum(v_lin, v_e[k]), 0.0)
-            cand_v[0] = v_e[k]
-            enter, leave = self._occupancy(cand_t[:, None], cand_v[:, None], float(s_stop[k]), s_in, s_out)
-            j = free_slot(enter, leave, np.asarray(busy_in), np.asarray(busy_out), keys,
-                          np.asarray(busy_pt, np.int64), fs.buffer)
+            cand_t, cand_v = self._candidate_arrivals(world.time, arr, k, n_cand)
+            enter, leave = self._occupancy(cand_t[:, None], cand_v[:, None], float(arr.s_stop[k]), s_in, s_out)
+            j = busy.first_free(enter, leave, keys, fs.buffer)
             if j < 0:
                 j = n_cand - 1
-            grant = Grant(float(cand_t[j]), float(cand_v[j]), j == 0,
-                          {int(kk): (float(e), float(l_)) for kk, e, l_ in zip(keys, enter[j], leave[j])})
-            self.grants[vid] = grant
-            reserve(vid, keys, enter[j], leave[j])
+            self.grants[world.ids[k]] = Grant(
+                float(cand_t[j]), float(cand_v[j]), j == 0,
+                {int(kk): (float(e), float(l_)) for kk, e, l_ in zip(keys, enter[j], leave[j])})
+            busy.add(keys, enter[j], leave[j])
 
-        # 3. commands
-        accel = np.zeros(n)
+    def _candidate_arrivals(self, t: float, arr: _Arrivals, k: int, n_cand: int):
+        """(times [s], speeds [m/s]) of the ``n_cand`` arrivals tried for vehicle ``k``: its earliest,
+        then every ``slot_step`` later at the constant-acceleration speed (0: stop and start)."""
+        cand_t = arr.t_e[k] + self.fs.slot_step * np.arange(n_cand)
+        dt = np.maximum(cand_t - t, 1e-6)
+        v_lin = 2.0 * max(arr.d[k], 0.0) / dt - arr.v[k]
+        cand_v = np.where(v_lin >= 0, np.minimum(v_lin, arr.v_e[k]), 0.0)
+        cand_v[0] = arr.v_e[k]
+        return cand_t, cand_v
+
+    def _commands(self, world: World, arr: _Arrivals, active: list[int]) -> np.ndarray:
+        """Rule 3: [m/s^2] each active vehicle's acceleration towards its grant (0 for the others),
+        before the leader caps."""
+        accel = np.zeros(len(world))
         for k in active:
-            vid = ids[k]
-            grant = self.grants[vid]
-            if past[k] or grant.earliest or grant.t_arrive <= t + 1e-9:
-                a = fs.comfort_accel
-            elif grant.v_arrive > 0:
-                dt = grant.t_arrive - t
-                a = 2.0 * (d[k] - v[k] * dt) / (dt * dt)
-            else:
-                a = stopping_acceleration(float(world.s[k]), float(v[k]), float(s_stop[k]) - fs.follow_gap)
-                a = -v[k] / period if a is None else a
-            a = min(a, (vmax - v[k]) / period)
-            accel[k] = min(max(a, -fs.max_brake), fs.comfort_accel)
-        self._leader_caps(world, active, accel)
+            accel[k] = self._grant_accel(world, arr, k, self.grants[world.ids[k]])
+        return accel
+
+    def _grant_accel(self, world: World, arr: _Arrivals, k: int, grant: Grant) -> float:
+        """[m/s^2] vehicle ``k``'s acceleration to fly ``grant``, clipped to [-max_brake, comfort_accel]."""
+        fs, period, t = self.fs, self.ctx.control_period, world.time
+        d, v = arr.d, arr.v
+        if arr.past[k] or grant.earliest or grant.t_arrive <= t + 1e-9:
+            a = fs.comfort_accel
+        elif grant.v_arrive > 0:
+            dt = grant.t_arrive - t
+            a = 2.0 * (d[k] - v[k] * dt) / (dt * dt)
+        else:
+            a = stopping_acceleration(float(world.s[k]), float(v[k]), float(arr.s_stop[k]) - fs.follow_gap)
+            a = -v[k] / period if a is None else a
+        a = min(a, (self.model.v_max - v[k]) / period)
+        return min(max(a, -fs.max_brake), fs.comfort_accel)
+
+    def _decisions(self, world: World, active: list[int], release: list[str], accel: np.ndarray,
+                   v: np.ndarray) -> Decisions:
+        """The step's Decisions: ``accel`` (no harder braking than to stop within the period) and
+        the path's exit lane for each active vehicle, and the vehicles to ``release``."""
+        period = self.ctx.control_period
+        decisions = Decisions(release=release)
         for k in active:
-            vid = ids[k]
+            vid = world.ids[k]
             decisions.accel[vid] = float(max(accel[k], -v[k] / period))
             if len(world.exit_choices.get(vid, ())) > 1:
                 decisions.exit_lane[vid] = self.paths[world.path_ids[k]].exit_lane

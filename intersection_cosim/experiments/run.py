@@ -17,13 +17,14 @@ import platform
 import shutil
 import tempfile
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from intersection_cosim import __version__
 from intersection_cosim.control import registry
-from intersection_cosim.control.base import ControlContext
+from intersection_cosim.control.base import ControlContext, Controller, Decisions, Diagnostics, World
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_output_options, write_routes,
                                                   write_sumocfg)
@@ -31,7 +32,7 @@ from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import load_conflicts
 from intersection_cosim.network.path_id import PathId
-from intersection_cosim.network.paths import load_paths
+from intersection_cosim.network.paths import MovementPath, load_paths
 from intersection_cosim.network.spec import IntersectionSpec
 from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE,
@@ -108,13 +109,59 @@ def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None, gui=None) ->
     return summary
 
 
-def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
-    # The simulator layer (libsumo) is loaded only by the process that runs a simulation, not by
-    # a sweep's supervising process, which imports this module through experiments.executors.
-    from intersection_cosim.sim.gui import GuiView
-    from intersection_cosim.sim.scheduler import StepScheduler
-    from intersection_cosim.sim.sumo import LIBSUMO, SumoSimulation, VehicleInfo
+class _Inputs(NamedTuple):
+    """A run's controller and the inputs its SUMO files were written from."""
 
+    controller: Controller
+    net: Path  # the cached net file (copied into the run's folder)
+    paths: dict[str, MovementPath]  # movement paths of the net, by path id
+    flow_vehicles: list[dict]  # the vehicles drawn from the scenario's flows
+
+
+class _Records(NamedTuple):
+    """The rows the closed loop records, filled in step by step."""
+
+    traj_rows: list[tuple]  # TRAJECTORY_COLUMNS, one per vehicle and control step
+    step_rows: list[tuple]  # STEP_COLUMNS, one per control step
+    game_rows: list[tuple]  # GAME_COLUMNS, one per game played
+    game_steps: dict[tuple[str, str], int]  # (id, id) sorted -> control steps the pair played a game
+
+
+class _Simulated(NamedTuple):
+    """What the simulation hands on: its vehicles, the recorded rows and where vehicles went."""
+
+    infos: dict  # vehicle id -> sim.sumo.VehicleInfo
+    records: _Records
+    final_paths: dict  # vehicle id -> the path it drove
+    exit_lanes: dict  # vehicle id -> the exit lane it took
+
+
+class _Tables(NamedTuple):
+    """A run's result tables."""
+
+    traj: pd.DataFrame
+    steps: pd.DataFrame
+    tripinfo: pd.DataFrame
+    collisions: pd.DataFrame
+    vehicles: pd.DataFrame
+    pairs: pd.DataFrame
+
+
+def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
+    """Run ``scn`` with every output written into ``folder``; return the summary dict."""
+    inputs = _write_inputs(scn, folder)
+    simulated = _simulate(scn, folder, inputs, gui)
+    tables = _result_tables(scn, folder, inputs, simulated)
+    diagnostics = inputs.controller.diagnostics()
+    _write_tables(folder, tables, simulated.records.game_rows, diagnostics)
+    summary = _summary(scn, simulated.infos, tables, diagnostics, gui)
+    with open(folder / RUN_MARKER, "w") as fh:
+        json.dump(summary, fh, indent=2)
+    return summary
+
+
+def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
+    """Create the run's controller and write its SUMO inputs (net, routes, config) into ``folder``."""
     s = scn.scenario
     controller = registry.create(scn.controller.kind, scn.controller_settings, s.junction_type)
     net = cached_net(IntersectionSpec(junction_type=controller.junction_type))
@@ -124,92 +171,140 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     flow_vehicles = generate_flow_vehicles(scn, rng)
     write_routes(folder / ROUTE_FILE, scn, paths, flow_vehicles)
     write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn)
+    return _Inputs(controller, net, paths, flow_vehicles)
 
-    infos: dict[str, VehicleInfo] = {}
+
+def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -> dict[str, dict]:
+    """The keyword arguments of each vehicle's ``sim.sumo.VehicleInfo``, by id: the scenario's
+    vehicles, then those of its flows."""
+    specs: dict[str, dict] = {}
     for v in scn.vehicles:
-        infos[v.id] = VehicleInfo(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
-                                  intended_path=v.path_id, controlled=controller.controls_vehicles,
-                                  exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
-                                  start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
+        specs[v.id] = dict(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
+                           intended_path=v.path_id, controlled=controlled,
+                           exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
+                           start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
     for fv in flow_vehicles:
         pid = str(PathId(fv["approach"], fv["lane"], fv["movement"], default_exit_lane(fv["lane"], fv["movement"])))
-        infos[fv["id"]] = VehicleInfo(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
-                                      kappa=fv["kappa"], intended_path=pid,
-                                      controlled=controller.controls_vehicles)
+        specs[fv["id"]] = dict(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
+                               kappa=fv["kappa"], intended_path=pid, controlled=controlled)
+    return specs
 
+
+def _period_steps(scn: Scenario) -> int:
+    """Simulation steps per control period; an InputError unless the period is a whole number of them."""
+    s = scn.scenario
     period_steps = max(1, int(round(scn.controller.period / s.step_length)))
     if abs(period_steps * s.step_length - scn.controller.period) > 1e-9:
         raise InputError(scn.source, "controller.period", scn.controller.period,
                          f"must be a multiple of scenario.step_length ({s.step_length:g} s)")
-    controller.setup(ControlContext(paths=paths, net_file=str(net), model=scn.model, control_period=scn.controller.period,
-                                    settings=scn.controller_settings, etm=scn.controller.etm))
+    return period_steps
+
+
+def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simulated:
+    """Run the closed loop in SUMO on the inputs in ``folder`` (libsumo; sumo-gui through TraCI
+    with ``gui``); SUMO writes its own outputs there too."""
+    # The simulator layer (libsumo) is loaded only by the process that runs a simulation, not by
+    # a sweep's supervising process, which imports this module through experiments.executors.
+    from intersection_cosim.sim.gui import GuiView
+    from intersection_cosim.sim.scheduler import StepScheduler
+    from intersection_cosim.sim.sumo import LIBSUMO, SumoSimulation, VehicleInfo
+
+    s, controller = scn.scenario, inputs.controller
+    specs = _vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
+    infos = {vid: VehicleInfo(**spec) for vid, spec in specs.items()}
+    period_steps = _period_steps(scn)
+    controller.setup(ControlContext(paths=inputs.paths, net_file=str(inputs.net), model=scn.model,
+                                    control_period=scn.controller.period, settings=scn.controller_settings,
+                                    etm=scn.controller.etm))
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
     observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
-    sim = SumoSimulation(paths=paths, vehicles=infos, step_length=s.step_length, exit_distance=s.exit_distance,
-                         backend=view.backend() if view is not None else LIBSUMO)
-
-    traj_rows: list[tuple] = []
-    step_rows: list[tuple] = []
-    game_steps: dict[tuple[str, str], int] = {}
-    game_rows: list[tuple] = []
-    end_time = s.duration + s.drain
+    sim = SumoSimulation(paths=inputs.paths, vehicles=infos, step_length=s.step_length,
+                         exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO)
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
         # the command line (the config's go to replay/)
         sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder))
         if view is not None:
             view.attach(sim.api)
-        sim.advance()  # time 0: insert the vehicles that depart at once
-        k = 0
-        while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
-            if k % period_steps == 0:
-                world = sim.world()  # read
-                decisions, record = scheduler.step(world)  # decide
-                sim.command(decisions)
-                for observe in observers:
-                    observe(world, decisions)
-                for i, vid in enumerate(world.ids):
-                    traj_rows.append((world.time, vid, world.x[i], world.y[i], world.v[i], world.a[i],
-                                      world.heading[i], world.lanes[i], world.role[i],
-                                      world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
-                step_rows.append(dataclasses.astuple(record))
-                for a, b in decisions.pairs:
-                    game_rows.append((world.time, a, b))
-                    key = (a, b) if a < b else (b, a)
-                    game_steps[key] = game_steps.get(key, 0) + 1
-            sim.write()  # write
-            scheduler.pace(sim.time)
-            sim.advance()  # step
-            k += 1
+        records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain)
         final_paths = dict(sim.current_path)
         exit_lanes = dict(sim.exit_lane_taken)
     finally:
         sim.close()
         if view is not None:
             view.close()
+    return _Simulated(infos, records, final_paths, exit_lanes)
 
-    traj = pd.DataFrame(traj_rows, columns=TRAJECTORY_COLUMNS)
-    steps = pd.DataFrame(step_rows, columns=STEP_COLUMNS)
+
+def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float) -> _Records:
+    """Step the started ``sim`` (sim.sumo.SumoSimulation) until ``end_time`` [s] or no vehicle is
+    left; every ``period_steps`` steps read the world, let ``scheduler`` (sim.scheduler.StepScheduler)
+    decide, command, show the step to ``observers`` and record it. Returns the recorded rows."""
+    records = _Records([], [], [], {})
+    sim.advance()  # time 0: insert the vehicles that depart at once
+    k = 0
+    while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
+        if k % period_steps == 0:
+            world = sim.world()  # read
+            decisions, record = scheduler.step(world)  # decide
+            sim.command(decisions)
+            for observe in observers:
+                observe(world, decisions)
+            _record_step(records, world, decisions, record)
+        sim.write()  # write
+        scheduler.pace(sim.time)
+        sim.advance()  # step
+        k += 1
+    return records
+
+
+def _record_step(records: _Records, world: World, decisions: Decisions, record) -> None:
+    """Append one control step to ``records``: a trajectory row per vehicle, the step's record
+    (sim.scheduler's StepRecord) and a row per game, counting the steps each pair played."""
+    for i, vid in enumerate(world.ids):
+        records.traj_rows.append((world.time, vid, world.x[i], world.y[i], world.v[i], world.a[i],
+                                  world.heading[i], world.lanes[i], world.role[i],
+                                  world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
+    records.step_rows.append(dataclasses.astuple(record))
+    for a, b in decisions.pairs:
+        records.game_rows.append((world.time, a, b))
+        key = (a, b) if a < b else (b, a)
+        records.game_steps[key] = records.game_steps.get(key, 0) + 1
+
+
+def _result_tables(scn: Scenario, folder: Path, inputs: _Inputs, simulated: _Simulated) -> _Tables:
+    """The run's tables, from the loop's records and the outputs SUMO wrote into ``folder``."""
+    traj = pd.DataFrame(simulated.records.traj_rows, columns=TRAJECTORY_COLUMNS)
+    steps = pd.DataFrame(simulated.records.step_rows, columns=STEP_COLUMNS)
     tripinfo = read_tripinfo(folder / TRIPINFO_FILE)
     ssm = read_ssm(folder / SSM_FILE)
     collisions = read_collisions(folder / COLLISIONS_FILE)
-    vehicles = vehicle_table(infos, tripinfo, exit_lanes, collisions)
-    pairs = pair_table(traj, final_paths, paths, load_conflicts(net, scn.model.vehicle_width), scn.model,
-                       ssm, game_steps)
+    vehicles = vehicle_table(simulated.infos, tripinfo, simulated.exit_lanes, collisions)
+    pairs = pair_table(traj, simulated.final_paths, inputs.paths, load_conflicts(inputs.net, scn.model.vehicle_width),
+                       scn.model, ssm, simulated.records.game_steps)
+    return _Tables(traj, steps, tripinfo, collisions, vehicles, pairs)
 
-    traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
-    diagnostics = controller.diagnostics()
+
+def _write_tables(folder: Path, tables: _Tables, game_rows: list[tuple], diagnostics: Diagnostics) -> None:
+    """Write the run's CSVs into ``folder`` (convergence.csv only for a controller that solves games)."""
+    tables.traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
     if diagnostics.convergence is not None:
         rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
                 for r in diagnostics.convergence for m, res in enumerate(r.residuals)]
         pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / CONVERGENCE_FILE, index=False,
                                                                float_format="%.6g")
-    steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
+    tables.steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
     pd.DataFrame(game_rows, columns=GAME_COLUMNS).to_csv(folder / GAMES_FILE, index=False, float_format="%.4f")
-    vehicles.to_csv(folder / VEHICLES_FILE, index=False, float_format="%.4f")
-    pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
+    tables.vehicles.to_csv(folder / VEHICLES_FILE, index=False, float_format="%.4f")
+    tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
 
+
+def _summary(scn: Scenario, infos: dict, tables: _Tables, diagnostics: Diagnostics, gui=None) -> dict:
+    """The run's summary.json: what ran, with which settings and versions, counts and metrics."""
+    s = scn.scenario
+    tripinfo, collisions, steps = tables.tripinfo, tables.collisions, tables.steps
+    vehicles, pairs = tables.vehicles, tables.pairs
     summary = {
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
         "settings": {"scenario": to_dict(s), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
@@ -233,8 +328,6 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     }
     if gui is not None:
         summary["gui"] = {"simulator": "sumo-gui through TraCI", "delay_ms": gui.delay_ms}
-    with open(folder / RUN_MARKER, "w") as fh:
-        json.dump(summary, fh, indent=2)
     return summary
 
 
