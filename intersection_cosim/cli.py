@@ -65,7 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("scenario", help="scenario file (TOML)")
     sweep.add_argument("--kappa", action="append", metavar="VEHICLE=SPEC",
                        help="kappa values of one vehicle: a:b:step (b included), a,b,c or a; repeatable")
-    sweep.add_argument("--controller", help="controller kinds, comma-separated (default: the scenario's)")
+    sweep.add_argument("--controllers", "--controller", dest="controllers", metavar="K1,K2",
+                       help="controller kinds, comma-separated, as in compare (default: the scenario's; "
+                       "--controller is the old spelling)")
     sweep.add_argument("--seeds", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: the scenario's)")
     sweep.add_argument("--out", required=True, help="sweep folder; rerunning the same command skips finished runs")
     where = sweep.add_mutually_exclusive_group()
@@ -75,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     compare = sub.add_parser("compare", help="compare controllers over seeds on one or more demand scenarios")
     compare.add_argument("scenario", nargs="+", help="scenario file(s) (TOML), e.g. one per demand level")
-    compare.add_argument("--controllers", default="nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls",
+    compare.add_argument("--controllers", "--controller", dest="controllers", metavar="K1,K2", default="nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls",
                          help="controller kinds, comma-separated (default: %(default)s)")
     compare.add_argument("--seeds", default="1-5", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: 1-5)")
     compare.add_argument("--duration", type=_positive_float, help="[s] override every scenario's demand window")
@@ -134,7 +136,7 @@ def _interruptible(start) -> int:
 def _cmd_sweep(args) -> int:
     from intersection_cosim.experiments.sweep import make_spec, run_sweep
 
-    spec = make_spec(args.scenario, args.kappa, args.controller, args.seeds)
+    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds)
     return _interruptible(lambda: run_sweep(spec, args.out, workers=args.workers,
                                             dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 

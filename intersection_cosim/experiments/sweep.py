@@ -13,7 +13,8 @@ of a sweep (also an interrupted one), so it is exact after a crash and a rerun.
 
 Spec syntax (command line): ``--kappa V1=0.1:0.9:0.1`` (a range, both ends included, values
 rounded to 6 decimals), ``--kappa V2=0.2,0.5`` (a list) or ``--kappa V2=0.5``; ``--seeds 1-5``,
-``--seeds 1,3,7`` or a mix ``1-3,7``; ``--controller nash,stackelberg,sumo``.
+``--seeds 1,3,7`` or a mix ``1-3,7``; ``--controllers nash,stackelberg,sumo`` (``--controller``, the old
+spelling, is accepted too).
 """
 
 from __future__ import annotations
@@ -141,10 +142,10 @@ def parse_controllers(text: str) -> tuple[str, ...]:
     known = registry.names()
     for k in kinds:
         if k not in known:
-            raise InputError("--controller", "controller", text, f"unknown controller {k!r} "
+            raise InputError("--controllers", "controllers", text, f"unknown controller {k!r} "
                              f"(known: {', '.join(known)})")
     if len(set(kinds)) != len(kinds):
-        raise InputError("--controller", "controller", text, "a controller is given twice")
+        raise InputError("--controllers", "controllers", text, "a controller is given twice")
     return tuple(kinds)
 
 

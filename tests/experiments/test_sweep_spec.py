@@ -85,7 +85,9 @@ def test_malformed_kappa_is_one_line_exit_2_before_any_run(tmp_path, capsys, spe
     (["--seeds", "5-1"], "empty range"),
     (["--seeds", "1;2"], "bad syntax"),
     (["--seeds", "-1"], "bad syntax"),
-    (["--controller", "sumo,nope"], "unknown controller"),
+    (["--controller", "sumo,nope"], "unknown controller"),  # the old spelling
+    (["--controllers", "sumo,nope"], "unknown controller"),  # as compare spells it
+    (["--controllers", "sumo,sumo"], "given twice"),
 ])
 def test_other_malformed_specs(tmp_path, capsys, args, words):
     out = tmp_path / "sweep"
