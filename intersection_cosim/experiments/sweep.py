@@ -46,6 +46,9 @@ FAILED_DIR = "failed"
 LOCK_FILE = ".sweep.lock"
 MAX_VALUES = 10_000  # [-] values one --kappa spec may expand to
 DECIMALS = 6  # kappa values are rounded to this many decimals
+# The controllers whose decisions use a vehicle's kappa (the game controllers, control/game.py); SUMO's
+# own driver model (sumo, sumo-*) and the FCFS reservation (control/fcfs.py) ignore it.
+KAPPA_CONTROLLERS = ("nash", "stackelberg")
 # Columns that depend on the wall clock, not on the simulation (differ between identical runs).
 WALL_CLOCK_COLUMNS = ("compute_ms_median", "compute_ms_p95", "deadline_misses", "fallbacks")
 
@@ -257,6 +260,17 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
                      controllers=kinds, seeds=seed_list, scenario_text=text, overrides=tuple(fixed))
 
 
+def kappa_warning(spec: SweepSpec) -> str | None:
+    """One line naming the sweep's controllers that ignore kappa when the sweep sets kappa (their
+    runs differ only by seed, whatever --kappa says); None otherwise."""
+    blind = [c for c in spec.controllers if c not in KAPPA_CONTROLLERS]
+    if not spec.kappa or not blind:
+        return None
+    return (f"intersection-cosim: warning: {', '.join(blind)} {'ignores' if len(blind) == 1 else 'ignore'} kappa: "
+            f"{'its' if len(blind) == 1 else 'their'} runs differ only by seed, whatever --kappa says "
+            f"(kappa is used by {', '.join(KAPPA_CONTROLLERS)})")
+
+
 def load_spec(out: str | Path) -> SweepSpec:
     return SweepSpec.from_dict(json.loads((Path(out) / SPEC_FILE).read_text()))
 
@@ -360,6 +374,9 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None, d
         with _locked(out):
             check_out(spec, out)  # again, now that we hold the lock
             _write_atomic(out / SPEC_FILE, json.dumps(spec.to_dict(), indent=2) + "\n")
+            warning = kappa_warning(spec)  # once, after every input check passed
+            if warning:
+                print(warning, file=sys.stderr)
             _clean_leftovers(out)
             (out / RUNS_DIR).mkdir(exist_ok=True)
             jobs = spec.jobs(out, spec.scenario_text)

@@ -51,3 +51,14 @@ def test_case2_start_points_and_v4_in_junction(variant):
     assert [by_id[f"V{i}"].speed for i in range(1, 6)] == [6.0, 5.0, 5.5, 5.0, 6.0]
     # "the low speed of V4": it keeps its 5 m/s; the others drive up to the model's v_max
     assert [by_id[f"V{i}"].desired_speed for i in range(1, 6)] == [None, None, None, 5.0, None]
+
+
+@pytest.mark.parametrize("case", ["case1_A", "case1_B", "case1_C", "case1_D", "case2_A", "case2_B"])
+def test_paper_scenarios_run_the_game_unless_told_otherwise(case):
+    """`run scenarios/case1_A.toml` and a kappa sweep of it play the paper's game (kappa matters),
+    not SUMO's baseline (which ignores kappa)."""
+    from intersection_cosim.games.settings import GameSettings
+
+    scn = load_scenario(SCENARIOS / f"{case}.toml")
+    assert scn.controller.kind == "nash"
+    assert scn.solver == GameSettings()  # no [controller.solver] table: the calibrated defaults
