@@ -55,7 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run one scenario headless in SUMO")
     run.add_argument("scenario", help="scenario file (TOML)")
     run.add_argument("--controller", help="controller kind (overrides [controller] kind)")
-    run.add_argument("--out", help="output folder (default: runs/<scenario>-<controller>-seed<N>)")
+    run.add_argument("--out", help="output folder (default: runs/<scenario>-<controller>-seed<N>); "
+                     "a folder holding a finished run is refused unless --force")
+    run.add_argument("--force", action="store_true", help="replace the finished run in --out")
     run.add_argument("--seed", type=int, help="random seed (overrides [scenario] seed)")
     run.add_argument("--budget-ms", type=_positive_float, help="[ms] wall-time budget per control step")
     run.add_argument("--no-etm", action="store_true", help="play a game for every conflicting pair")
@@ -113,7 +115,7 @@ def _cmd_run(args) -> int:
     scn = with_overrides(scn, controller=args.controller, seed=args.seed, budget_ms=args.budget_ms,
                          etm=False if args.no_etm else None, realtime=True if args.realtime else None)
     out = Path(args.out) if args.out else Path("runs") / f"{scn.scenario.name}-{scn.controller.kind}-seed{scn.scenario.seed}"
-    summary = run_scenario(scn, out)
+    summary = run_scenario(scn, out, force=args.force)
     c = summary["counts"]
     print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")

@@ -42,10 +42,20 @@ STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", 
 RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
 
 
-def prepare_output(out: Path) -> Path:
-    """Check that ``out`` can be written and return the temporary folder to write into."""
+def prepare_output(out: Path, force: bool = False) -> Path:
+    """Check that ``out`` can be written and return the temporary folder to write into.
+
+    ``out`` must be new, an empty folder or, with ``force``, a previous run's folder (replaced
+    when the new run has finished); anything else is refused.
+    """
     out = Path(out)
-    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / RUN_MARKER).exists())):
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", "out", str(out), "is a file, not a folder")
+    if (out / RUN_MARKER).is_file():
+        if not force:
+            raise InputError("--out", "out", str(out), f"holds a finished run ({RUN_MARKER}); use --force to "
+                             "replace it, or another --out")
+    elif out.is_dir() and any(out.iterdir()):
         raise InputError("--out", "out", str(out), "exists and is not a previous run's folder; not overwriting it")
     parent = out.parent if str(out.parent) else Path(".")
     try:
@@ -81,14 +91,16 @@ def _versions() -> dict[str, str]:
             "osqp": getattr(osqp, "__version__", "unknown")}
 
 
-def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None) -> dict:
+def run_scenario(scn: Scenario, out: str | Path, *, force: bool = False, fail_hook=None) -> dict:
     """Run ``scn`` and write its results into ``out``; return the summary dict.
+
+    ``out`` holding a finished run is refused (InputError) unless ``force``, which replaces it.
 
     ``fail_hook`` (tests only) is called after the simulation loop, before the rename, so tests can
     simulate a crash at the worst moment.
     """
     out = Path(out)
-    tmp = prepare_output(out)
+    tmp = prepare_output(out, force)
     try:
         summary = _run_into(scn, tmp)
         if fail_hook is not None:
