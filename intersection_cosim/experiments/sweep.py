@@ -311,17 +311,30 @@ def _clean_leftovers(out: Path) -> None:
 
 @contextlib.contextmanager
 def _locked(out: Path):
+    """Hold ``out``'s lock file while the sweep writes; remove it when done (a finished sweep
+    leaves no lock behind). A sweep that opened the file just before another removed it finds
+    its inode gone from the folder and is refused like any concurrent sweep."""
     try:
         import fcntl
     except ImportError:  # not POSIX: no lock
         yield
         return
-    with open(out / LOCK_FILE, "w") as fh:
+    lock = out / LOCK_FILE
+    busy = InputError("--out", "out", str(out), "another sweep is writing into this folder")
+    with open(lock, "w") as fh:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            raise InputError("--out", "out", str(out), "another sweep is writing into this folder") from None
-        yield
+            raise busy from None
+        try:
+            if os.stat(lock).st_ino != os.fstat(fh.fileno()).st_ino:
+                raise busy
+        except FileNotFoundError:
+            raise busy from None
+        try:
+            yield
+        finally:
+            lock.unlink(missing_ok=True)  # still holding the lock: no other sweep is in between
 
 
 # --- running -----------------------------------------------------------------------------------
