@@ -14,9 +14,44 @@ from intersection_cosim import __version__
 from intersection_cosim.errors import InputError
 
 
+DESCRIPTION = """\
+Co-simulation of autonomous vehicles at an intersection without traffic lights: Eclipse SUMO
+(through libsumo) with the differential-game decisions of Hang et al. (aggressiveness kappa,
+potential-field risk, event trigger, Nash and Stackelberg equilibria)."""
+
+EXAMPLES = """\
+examples:
+  intersection-cosim run scenarios/case1_A.toml --out runs/case1_A
+      play the paper's Case 1 A (Nash game unless --controller says otherwise)
+  intersection-cosim sweep scenarios/case1_A.toml --kappa V2=0.1:0.9:0.2 --out sweeps/V2
+      one run per kappa value of V2 (add --controllers nash,stackelberg,sumo to compare)
+  intersection-cosim compare scenarios/demand_balanced_low.toml --seeds 1-3 --out compare/low
+      every controller over seeds under random demand: delay, safety, compute time
+  intersection-cosim report sweeps/V2
+      figures and report.md of a run or sweep folder (a kappa sweep: kappa_tradeoff_<V>.png)
+  intersection-cosim net --junction-type allway_stop --out nets/allway
+      build the intersection net with netconvert
+
+'intersection-cosim COMMAND --help' describes a command's options."""
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # argparse's own errors: one line, status 2
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+    def format_help(self) -> str:
+        if callable(self.epilog):  # filled on demand (e.g. from the controller registry)
+            self.epilog = self.epilog()
+        return super().format_help()
+
+
+def _controllers_epilog() -> str:
+    """``run --help``'s list of the controllers, from the registry (imported only for help)."""
+    from intersection_cosim.control import registry
+
+    width = max(len(n) for n in registry.names())
+    lines = [f"  {name:<{width}}  {registry.get(name).description}" for name in registry.names()]
+    return "controllers (--controller or [controller] kind in the scenario file):\n" + "\n".join(lines)
 
 
 def _positive_float(text: str) -> float:
@@ -40,7 +75,8 @@ def _positive_int(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="intersection-cosim", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="intersection-cosim", description=DESCRIPTION, epilog=EXAMPLES,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log warnings and progress")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -52,9 +88,10 @@ def build_parser() -> argparse.ArgumentParser:
     net.add_argument("--approach-length", type=_positive_float, default=150.0,
                      help="[m] distance from the centre to each arm's end (default 150)")
 
-    run = sub.add_parser("run", help="run one scenario headless in SUMO")
+    run = sub.add_parser("run", help="run one scenario headless in SUMO", epilog=_controllers_epilog,
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
     run.add_argument("scenario", help="scenario file (TOML)")
-    run.add_argument("--controller", help="controller kind (overrides [controller] kind)")
+    run.add_argument("--controller", help="controller kind, one of the list below (overrides [controller] kind)")
     run.add_argument("--out", help="output folder (default: runs/<scenario>-<controller>-seed<N>); "
                      "a folder holding a finished run is refused unless --force")
     run.add_argument("--force", action="store_true", help="replace the finished run in --out")
