@@ -13,7 +13,11 @@ the scenarios' own 100 ms, a Stackelberg game of Case 2 A may stop at the anytim
 loaded machine, and the run then depends on the load by design). ``--budget-ms 100`` emulates
 the HIL box.
 
-Rerunning the same command skips runs whose folder already holds summary.json.
+Rerunning the same command reuses a finished run folder only when its summary.json records the
+same resolved settings (scenario, controller with its budget and trigger, model, solver) and the
+same intersection_cosim and SUMO versions as the run would have now; any other run is played again
+(``run --force``), so a ``--budget-ms 100`` rerun into a 2000 ms folder reports 100 ms runs.
+A bad ``--out`` (a file, a folder that cannot be written) is one line on stderr and exit status 2.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import shlex
 import shutil
 import subprocess
@@ -54,34 +59,102 @@ def run_name(case: str, ctrl: str, etm: bool) -> str:
 
 
 # ---------------------------------------------------------------- running
-def play(out: Path, case: str, ctrl: str, etm: bool, budget_ms: float) -> tuple[str, str | None]:
-    """Run one simulation in a fresh process; returns (name, error or None)."""
+REUSE_VERSIONS = ("intersection_cosim", "sumo")  # a run folder made by other versions of these is rerun
+
+
+def run_settings(case: str, ctrl: str, etm: bool, budget_ms: float) -> dict:
+    """The resolved settings that :func:`play`'s ``run`` command records in summary.json."""
+    from intersection_cosim.experiments.run import resolved_settings
+    from intersection_cosim.scenario import load_scenario, with_overrides
+
+    scn = with_overrides(load_scenario(ROOT / "scenarios" / f"{case}.toml"), controller=ctrl, budget_ms=budget_ms,
+                         etm=None if etm else False)
+    return json.loads(json.dumps(resolved_settings(scn)))  # as read back from summary.json
+
+
+def _flat(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
+    return out
+
+
+def rerun_reason(run_dir: Path, settings: dict, versions: dict) -> str | None:
+    """Why ``run_dir`` cannot stand for a run with ``settings`` under ``versions``; None: reuse it."""
+    f = Path(run_dir) / "summary.json"
+    if not f.is_file():
+        return "no finished run"
+    try:
+        summary = json.loads(f.read_text())
+        old = _flat(summary["settings"])
+        made_by = summary.get("versions") or {}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return "unreadable summary.json"
+    new = _flat(settings)
+    differ = sorted(k for k in old.keys() | new.keys() if old.get(k, "(none)") != new.get(k, "(none)"))
+    if differ:
+        shown = ", ".join(f"{k} {old.get(k, '(none)')} -> {new.get(k, '(none)')}" for k in differ[:3])
+        return f"settings differ: {shown}" + (f" and {len(differ) - 3} more" if len(differ) > 3 else "")
+    for name in REUSE_VERSIONS:
+        if made_by.get(name) != versions.get(name):
+            return f"made by {name} {made_by.get(name)}, this is {versions.get(name)}"
+    return None
+
+
+def play(out: Path, case: str, ctrl: str, etm: bool, budget_ms: float, settings: dict,
+         versions: dict) -> tuple[str, str, str | None]:
+    """Run one simulation in a fresh process unless its folder holds the same run (``settings``,
+    ``versions``) already; returns (name, what was done, error or None)."""
     name = run_name(case, ctrl, etm)
     run_dir = out / "runs" / name
-    if (run_dir / "summary.json").is_file():
-        return name, None
-    if run_dir.exists():
+    reason = rerun_reason(run_dir, settings, versions)
+    if reason is None:
+        return name, "reused (same settings and versions)", None
+    finished = (run_dir / "summary.json").is_file()
+    if run_dir.exists() and not finished:
         shutil.rmtree(run_dir)  # a partial folder from an interrupted run
     cmd = [sys.executable, "-m", "intersection_cosim", "run", str(ROOT / "scenarios" / f"{case}.toml"),
            "--controller", ctrl, "--budget-ms", f"{budget_ms:g}", "--out", str(run_dir)] + ([] if etm else ["--no-etm"])
+    cmd += ["--force"] if finished else []  # replaced only once the new run has finished
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     log = out / "logs" / f"{name}.log"
     log.parent.mkdir(parents=True, exist_ok=True)
     log.write_text(f"$ {shlex.join(cmd)}\n--- stdout\n{proc.stdout}\n--- stderr\n{proc.stderr}")
+    done = f"rerun ({reason})" if finished else "ran"
     if proc.returncode != 0 or not (run_dir / "summary.json").is_file():
-        return name, f"exit code {proc.returncode} (see logs/{name}.log)"
-    return name, None
+        return name, done, f"exit code {proc.returncode} (see logs/{name}.log)"
+    return name, done, None
 
 
 def play_all(out: Path, cases: list[str], workers: int, budget_ms: float) -> dict[str, str]:
+    from intersection_cosim.experiments.run import versions
+
     jobs = [(c, k, e) for c in cases for k in CONTROLLERS for e in (True, False)]
+    now = versions()
+    settings = [run_settings(*j, budget_ms) for j in jobs]  # here: the registry's first use is not thread-safe
     failures = {}
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        for name, err in pool.map(lambda j: play(out, *j, budget_ms), jobs):
-            print(f"{name}: {'ok' if err is None else 'FAILED ' + err}", flush=True)
+        for name, done, err in pool.map(lambda j, s: play(out, *j, budget_ms, s, now), jobs, settings):
+            print(f"{name}: {done}" + ("" if err is None else f", FAILED {err}"), flush=True)
             if err:
                 failures[name] = err
     return failures
+
+
+def check_out(out: Path) -> str | None:
+    """The problem with ``out`` as the report folder (None: usable); nothing is created."""
+    if out.exists():
+        if not out.is_dir():
+            return "is a file, not a folder"
+        return None if os.access(out, os.W_OK | os.X_OK) else "cannot be written (permission denied)"
+    parent = out.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"cannot be made: {parent} is a file, not a folder"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f"cannot be made: {parent} cannot be written (permission denied)"
+    return None
 
 
 # ---------------------------------------------------------------- loading
@@ -332,7 +405,7 @@ def write_report(out: Path, cases, tables, figs, failures, wall, budget_ms, mode
     tmp.replace(out / "report.md")
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="report", help="report folder (default: report)")
     ap.add_argument("--workers", type=int, default=2, help="parallel runs (default: 2)")
@@ -340,12 +413,20 @@ def main() -> int:
     ap.add_argument("--budget-ms", type=float, default=BUDGET_MS,
                     help=f"control-step budget of every run [ms] (default: {BUDGET_MS:g}, never binds; "
                          "100 = the HIL box)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     if not args.budget_ms > 0:
         print(f"reproduce_paper: --budget-ms: budget_ms = {args.budget_ms:g}: must be > 0", file=sys.stderr)
         return 2
     out = Path(args.out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
+    problem = check_out(out)
+    if problem is None:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            problem = f"cannot be made ({exc.strerror})"
+    if problem:
+        print(f"reproduce_paper: --out: out = {str(args.out)!r}: {problem}", file=sys.stderr)
+        return 2
     cases = QUICK if args.quick else SCENARIOS
     t0 = time.perf_counter()
     failures = play_all(out, cases, max(1, args.workers), args.budget_ms)

@@ -80,7 +80,15 @@ def finish_output(tmp: Path, out: Path) -> None:
         os.replace(tmp, out)
 
 
-def _versions() -> dict[str, str]:
+def resolved_settings(scn: Scenario) -> dict:
+    """The settings a run of ``scn`` records in summary.json's ``settings`` (scenario, controller,
+    model and solver tables after defaults and overrides): what makes two runs the same run."""
+    return {"scenario": to_dict(scn.scenario), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
+            "solver": to_dict(scn.solver) if dataclasses.is_dataclass(scn.solver) else None}
+
+
+def versions() -> dict[str, str]:
+    """The versions a run records in summary.json (this package, SUMO, Python and the numerics)."""
     import osqp
     import scipy
 
@@ -200,9 +208,8 @@ def _run_into(scn: Scenario, folder: Path) -> dict:
 
     summary = {
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
-        "settings": {"scenario": to_dict(s), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
-                     "solver": to_dict(scn.solver) if dataclasses.is_dataclass(scn.solver) else None},
-        "versions": _versions(),
+        "settings": resolved_settings(scn),
+        "versions": versions(),
         "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
                    "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
                    "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),
