@@ -76,3 +76,15 @@ def test_bad_out_is_one_line_exit_2_and_writes_nothing(tmp_path, where):
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("reproduce_paper: --out: out = ")
     assert str(out) in proc.stderr and "is a file" in proc.stderr and "Traceback" not in proc.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"] and target.read_text() == "mine"
+
+
+def test_the_convergence_figure_reads_the_tolerance_from_the_run_else_the_defaults(rp, tmp_path):
+    from intersection_cosim.games.settings import GameSettings
+
+    runs = rp.Runs(tmp_path)
+    assert rp.stopping_rule(runs, "case1_A", "nash") == {"tol": GameSettings().nash_tol, "guard": 0.3, "rtol": 1e-3}
+    run = runs.dir("case1_A", "stackelberg")
+    run.mkdir(parents=True)
+    (run / "summary.json").write_text(json.dumps({"settings": {"solver": {"stackelberg_tol": 0.005,
+                                                                          "nash_cost_guard": 0.2}}}))
+    assert rp.stopping_rule(runs, "case1_A", "stackelberg") == {"tol": 0.005, "guard": 0.2, "rtol": 1e-3}
