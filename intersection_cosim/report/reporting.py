@@ -26,6 +26,7 @@ from intersection_cosim.report import figures as fig
 
 REPORT_FILE = "report.md"
 FIGURES_DIR = "figures"
+TRADEOFF_PNG = "kappa_tradeoff_{vehicle}.png"  # a sweep's trade-off figure, in FIGURES_DIR
 SWEEP_METRICS = ("mean_travel_time", "min_ttc", "min_ttc_ssm", "collisions")  # heatmaps and lines
 # (metric, label, unit, higher is better)
 RANKINGS = (("mean_travel_time", "mean travel time", "s", False),
@@ -153,7 +154,7 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
     axes = spec.axes
     vehicle = tradeoff_vehicle(spec)
     if vehicle is not None and len(ok):
-        png = figs / f"kappa_tradeoff_{vehicle}.png"
+        png = figs / TRADEOFF_PNG.format(vehicle=vehicle)
         fig.kappa_tradeoff(ok, vehicle, png)
         out.append((f"Trade-off: {vehicle}'s travel time against its min TTC and PET, one point per kappa value "
                     "(more aggressive: faster, closer)", str(png.relative_to(folder))))
