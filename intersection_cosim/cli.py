@@ -14,9 +14,48 @@ from intersection_cosim import __version__
 from intersection_cosim.errors import InputError
 
 
+DESCRIPTION = """\
+Co-simulation of autonomous vehicles at an intersection without traffic lights: Eclipse SUMO
+(through libsumo) with the differential-game decisions of Hang et al. (aggressiveness kappa,
+potential-field risk, event trigger, Nash and Stackelberg equilibria)."""
+
+EXAMPLES = """\
+examples:
+  intersection-cosim run scenarios/case1_A.toml --out runs/case1_A
+      play the paper's Case 1 A (Nash game unless --controller says otherwise)
+  intersection-cosim sweep scenarios/case1_A.toml --kappa V2=0.1:0.9:0.2 --out sweeps/V2
+      one run per kappa value of V2 (add --controllers nash,stackelberg,sumo to compare)
+  intersection-cosim compare scenarios/demand_balanced_low.toml --seeds 1-3 --out compare/low
+      every controller over seeds under random demand: delay, safety, compute time
+  intersection-cosim report sweeps/V2
+      figures and report.md of a run or sweep folder (a kappa sweep: kappa_tradeoff_<V>.png)
+  intersection-cosim animate runs/case1_A
+      a GIF of the run drawn from its outputs (runs/case1_A/animation.gif)
+  intersection-cosim run scenarios/case1_A.toml --gui
+      the same run live in sumo-gui, vehicles coloured by kappa, games marked
+  intersection-cosim net --junction-type allway_stop --out nets/allway
+      build the intersection net with netconvert
+
+'intersection-cosim COMMAND --help' describes a command's options."""
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # argparse's own errors: one line, status 2
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+    def format_help(self) -> str:
+        if callable(self.epilog):  # filled on demand (e.g. from the controller registry)
+            self.epilog = self.epilog()
+        return super().format_help()
+
+
+def _controllers_epilog() -> str:
+    """``run --help``'s list of the controllers, from the registry (imported only for help)."""
+    from intersection_cosim.control import registry
+
+    width = max(len(n) for n in registry.names())
+    lines = [f"  {name:<{width}}  {registry.get(name).description}" for name in registry.names()]
+    return "controllers (--controller or [controller] kind in the scenario file):\n" + "\n".join(lines)
 
 
 def _positive_float(text: str) -> float:
@@ -50,7 +89,8 @@ def _positive_int(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="intersection-cosim", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="intersection-cosim", description=DESCRIPTION, epilog=EXAMPLES,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log warnings and progress")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -62,10 +102,13 @@ def build_parser() -> argparse.ArgumentParser:
     net.add_argument("--approach-length", type=_positive_float, default=150.0,
                      help="[m] distance from the centre to each arm's end (default 150)")
 
-    run = sub.add_parser("run", help="run one scenario headless in SUMO")
+    run = sub.add_parser("run", help="run one scenario in SUMO (headless, or live in sumo-gui with --gui)", epilog=_controllers_epilog,
+                         formatter_class=argparse.RawDescriptionHelpFormatter)
     run.add_argument("scenario", help="scenario file (TOML)")
-    run.add_argument("--controller", help="controller kind (overrides [controller] kind)")
-    run.add_argument("--out", help="output folder (default: runs/<scenario>-<controller>-seed<N>)")
+    run.add_argument("--controller", help="controller kind, one of the list below (overrides [controller] kind)")
+    run.add_argument("--out", help="output folder (default: runs/<scenario>-<controller>-seed<N>); "
+                     "a folder holding a finished run is refused unless --force")
+    run.add_argument("--force", action="store_true", help="replace the finished run in --out")
     run.add_argument("--seed", type=int, help="random seed (overrides [scenario] seed)")
     run.add_argument("--budget-ms", type=_positive_float, help="[ms] wall-time budget per control step")
     run.add_argument("--no-etm", action="store_true", help="play a game for every conflicting pair")
@@ -79,7 +122,9 @@ def build_parser() -> argparse.ArgumentParser:
     sweep.add_argument("scenario", help="scenario file (TOML)")
     sweep.add_argument("--kappa", action="append", metavar="VEHICLE=SPEC",
                        help="kappa values of one vehicle: a:b:step (b included), a,b,c or a; repeatable")
-    sweep.add_argument("--controller", help="controller kinds, comma-separated (default: the scenario's)")
+    sweep.add_argument("--controllers", "--controller", dest="controllers", metavar="K1,K2",
+                       help="controller kinds, comma-separated, as in compare (default: the scenario's; "
+                       "--controller is the old spelling)")
     sweep.add_argument("--seeds", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: the scenario's)")
     sweep.add_argument("--out", required=True, help="sweep folder; rerunning the same command skips finished runs")
     where = sweep.add_mutually_exclusive_group()
@@ -89,7 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     compare = sub.add_parser("compare", help="compare controllers over seeds on one or more demand scenarios")
     compare.add_argument("scenario", nargs="+", help="scenario file(s) (TOML), e.g. one per demand level")
-    compare.add_argument("--controllers", default="nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls",
+    compare.add_argument("--controllers", "--controller", dest="controllers", metavar="K1,K2", default="nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls",
                          help="controller kinds, comma-separated (default: %(default)s)")
     compare.add_argument("--seeds", default="1-5", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: 1-5)")
     compare.add_argument("--duration", type=_positive_float, help="[s] override every scenario's demand window")
@@ -139,7 +184,7 @@ def _cmd_run(args) -> int:
         from intersection_cosim.sim.gui import GuiSettings
 
         gui = GuiSettings(delay_ms=args.gui_delay)
-    summary = run_scenario(scn, out, gui=gui)
+    summary = run_scenario(scn, out, force=args.force, gui=gui)
     c = summary["counts"]
     print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
@@ -162,7 +207,7 @@ def _interruptible(start) -> int:
 def _cmd_sweep(args) -> int:
     from intersection_cosim.experiments.sweep import make_spec, run_sweep
 
-    spec = make_spec(args.scenario, args.kappa, args.controller, args.seeds)
+    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds)
     return _interruptible(lambda: run_sweep(spec, args.out, workers=args.workers,
                                             dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 

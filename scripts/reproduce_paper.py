@@ -13,7 +13,11 @@ the scenarios' own 100 ms, a Stackelberg game of Case 2 A may stop at the anytim
 loaded machine, and the run then depends on the load by design). ``--budget-ms 100`` emulates
 the HIL box.
 
-Rerunning the same command skips runs whose folder already holds summary.json.
+Rerunning the same command reuses a finished run folder only when its summary.json records the
+same resolved settings (scenario, controller with its budget and trigger, model, solver) and the
+same intersection_cosim and SUMO versions as the run would have now; any other run is played again
+(``run --force``), so a ``--budget-ms 100`` rerun into a 2000 ms folder reports 100 ms runs.
+A bad ``--out`` (a file, a folder that cannot be written) is one line on stderr and exit status 2.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import shlex
 import shutil
 import subprocess
@@ -37,7 +42,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from intersection_cosim.report.figures import trajectory_figure, velocity_figure  # noqa: E402
+from intersection_cosim.report import figures  # noqa: E402
+from intersection_cosim.report.reporting import markdown_table  # noqa: E402
+from intersection_cosim.report.figures import draw_ecdf, trajectory_figure, velocity_figure  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ["case1_A", "case1_B", "case1_C", "case1_D", "case2_A", "case2_B"]
@@ -54,34 +61,102 @@ def run_name(case: str, ctrl: str, etm: bool) -> str:
 
 
 # ---------------------------------------------------------------- running
-def play(out: Path, case: str, ctrl: str, etm: bool, budget_ms: float) -> tuple[str, str | None]:
-    """Run one simulation in a fresh process; returns (name, error or None)."""
+REUSE_VERSIONS = ("intersection_cosim", "sumo")  # a run folder made by other versions of these is rerun
+
+
+def run_settings(case: str, ctrl: str, etm: bool, budget_ms: float) -> dict:
+    """The resolved settings that :func:`play`'s ``run`` command records in summary.json."""
+    from intersection_cosim.experiments.run import resolved_settings
+    from intersection_cosim.scenario import load_scenario, with_overrides
+
+    scn = with_overrides(load_scenario(ROOT / "scenarios" / f"{case}.toml"), controller=ctrl, budget_ms=budget_ms,
+                         etm=None if etm else False)
+    return json.loads(json.dumps(resolved_settings(scn)))  # as read back from summary.json
+
+
+def _flat(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        out.update(_flat(v, f"{prefix}{k}.") if isinstance(v, dict) else {f"{prefix}{k}": v})
+    return out
+
+
+def rerun_reason(run_dir: Path, settings: dict, versions: dict) -> str | None:
+    """Why ``run_dir`` cannot stand for a run with ``settings`` under ``versions``; None: reuse it."""
+    f = Path(run_dir) / "summary.json"
+    if not f.is_file():
+        return "no finished run"
+    try:
+        summary = json.loads(f.read_text())
+        old = _flat(summary["settings"])
+        made_by = summary.get("versions") or {}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return "unreadable summary.json"
+    new = _flat(settings)
+    differ = sorted(k for k in old.keys() | new.keys() if old.get(k, "(none)") != new.get(k, "(none)"))
+    if differ:
+        shown = ", ".join(f"{k} {old.get(k, '(none)')} -> {new.get(k, '(none)')}" for k in differ[:3])
+        return f"settings differ: {shown}" + (f" and {len(differ) - 3} more" if len(differ) > 3 else "")
+    for name in REUSE_VERSIONS:
+        if made_by.get(name) != versions.get(name):
+            return f"made by {name} {made_by.get(name)}, this is {versions.get(name)}"
+    return None
+
+
+def play(out: Path, case: str, ctrl: str, etm: bool, budget_ms: float, settings: dict,
+         versions: dict) -> tuple[str, str, str | None]:
+    """Run one simulation in a fresh process unless its folder holds the same run (``settings``,
+    ``versions``) already; returns (name, what was done, error or None)."""
     name = run_name(case, ctrl, etm)
     run_dir = out / "runs" / name
-    if (run_dir / "summary.json").is_file():
-        return name, None
-    if run_dir.exists():
+    reason = rerun_reason(run_dir, settings, versions)
+    if reason is None:
+        return name, "reused (same settings and versions)", None
+    finished = (run_dir / "summary.json").is_file()
+    if run_dir.exists() and not finished:
         shutil.rmtree(run_dir)  # a partial folder from an interrupted run
     cmd = [sys.executable, "-m", "intersection_cosim", "run", str(ROOT / "scenarios" / f"{case}.toml"),
            "--controller", ctrl, "--budget-ms", f"{budget_ms:g}", "--out", str(run_dir)] + ([] if etm else ["--no-etm"])
+    cmd += ["--force"] if finished else []  # replaced only once the new run has finished
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
     log = out / "logs" / f"{name}.log"
     log.parent.mkdir(parents=True, exist_ok=True)
     log.write_text(f"$ {shlex.join(cmd)}\n--- stdout\n{proc.stdout}\n--- stderr\n{proc.stderr}")
+    done = f"rerun ({reason})" if finished else "ran"
     if proc.returncode != 0 or not (run_dir / "summary.json").is_file():
-        return name, f"exit code {proc.returncode} (see logs/{name}.log)"
-    return name, None
+        return name, done, f"exit code {proc.returncode} (see logs/{name}.log)"
+    return name, done, None
 
 
 def play_all(out: Path, cases: list[str], workers: int, budget_ms: float) -> dict[str, str]:
+    from intersection_cosim.experiments.run import versions
+
     jobs = [(c, k, e) for c in cases for k in CONTROLLERS for e in (True, False)]
+    now = versions()
+    settings = [run_settings(*j, budget_ms) for j in jobs]  # here: the registry's first use is not thread-safe
     failures = {}
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        for name, err in pool.map(lambda j: play(out, *j, budget_ms), jobs):
-            print(f"{name}: {'ok' if err is None else 'FAILED ' + err}", flush=True)
+        for name, done, err in pool.map(lambda j, s: play(out, *j, budget_ms, s, now), jobs, settings):
+            print(f"{name}: {done}" + ("" if err is None else f", FAILED {err}"), flush=True)
             if err:
                 failures[name] = err
     return failures
+
+
+def check_out(out: Path) -> str | None:
+    """The problem with ``out`` as the report folder (None: usable); nothing is created."""
+    if out.exists():
+        if not out.is_dir():
+            return "is a file, not a folder"
+        return None if os.access(out, os.W_OK | os.X_OK) else "cannot be written (permission denied)"
+    parent = out.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"cannot be made: {parent} is a file, not a folder"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f"cannot be made: {parent} cannot be written (permission denied)"
+    return None
 
 
 # ---------------------------------------------------------------- loading
@@ -240,59 +315,69 @@ def run_figures(runs: Runs, cases: list[str], figdir: Path) -> list[Path]:
     return [Path(p) for p in pngs]
 
 
-def compute_time_figure(runs: Runs, case: str, out_png: Path) -> Path:
-    """Fig. 7: the compute time per control step with and without the trigger (top) and, below,
-    the QPs solved so far: the same comparison without the machine's load in it."""
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True, sharey="row")
-    for col, (ctrl, lab) in enumerate(CONTROLLERS.items()):
-        ax, work = axes[0, col], axes[1, col]
-        for etm, style in ((False, "tab:red"), (True, "tab:blue")):
-            s = runs.csv(case, ctrl, "steps", etm)
-            if s is not None:
+ETM_STYLES = {"NE": "tab:blue", "SE": "tab:orange"}
+
+
+def compute_time_figure(runs: Runs, cases: list[str], out_png: Path) -> Path:
+    """Fig. 7 as distributions: per case and equilibrium, the ECDF of the compute time per control
+    step with the trigger against without it (log axis). The first control step (the warm-up:
+    first solves, caches) is left out and its time given in the title; the legend also gives the
+    QPs per step, the same comparison without the machine's load."""
+    fig, axes = plt.subplots(len(cases), len(CONTROLLERS), figsize=(11, 3.6 * len(cases)), squeeze=False,
+                             sharex=True, layout="constrained")
+    warmups = []
+    for row, case in enumerate(cases):
+        for col, (ctrl, lab) in enumerate(CONTROLLERS.items()):
+            samples, styles, extra = {}, {}, {}
+            for etm in (True, False):
+                s = runs.csv(case, ctrl, "steps", etm)
+                if s is None or not len(s):
+                    continue
                 name = "ETM" if etm else "no ETM"
-                ax.plot(s["time"], s["compute_ms"], color=style, lw=1,
-                        label=f"{name} (mean {s['compute_ms'].mean():.2f} ms)")
+                warmups.append(float(s["compute_ms"].iloc[0]))
+                samples[name] = s["compute_ms"].to_numpy(float)[1:]
+                styles[name] = {"color": ETM_STYLES[lab], "ls": "-" if etm else "--"}
                 if "qp_solves" in s:  # (absent from runs of versions before the column)
-                    work.plot(s["time"], s["qp_solves"].cumsum(), color=style, lw=1.5,
-                              label=f"{name} ({s['qp_solves'].mean():.2f} QPs per step)")
-        ax.set(title=f"{case}, {lab}")
-        work.set(xlabel="time [s]")
-        for a in (ax, work):
-            a.legend()
-            a.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("compute time per control step [ms]")
-    axes[1, 0].set_ylabel("QPs solved so far [-]")
-    fig.tight_layout()
+                    extra[name] = f"{s['qp_solves'].mean():.2f} QPs per step"
+            draw_ecdf(axes[row, col], samples, styles, extra)
+            axes[row, col].set_title(f"{case}, {lab}", fontsize=10)
+            if row < len(cases) - 1:
+                axes[row, col].set_xlabel("")
+    warm = f": {min(warmups):.1f}-{max(warmups):.1f} ms" if warmups else ""
+    fig.suptitle("Compute time per control step, with the event trigger (ETM) and without; the first step "
+                 f"left out (the warm-up{warm})", fontsize=11)
     fig.savefig(out_png, dpi=120)
     plt.close(fig)
     return out_png
+
+
+def stopping_rule(runs: Runs, case: str, ctrl: str) -> dict:
+    """The run's convergence limits from its recorded settings (else SolverSettings' defaults): tol
+    [m/s^2] (nash_tol / stackelberg_tol), the guard [m/s^2] and relative gain of the cost criterion."""
+    from intersection_cosim.games.settings import SolverSettings
+
+    recorded = ((runs.summary(case, ctrl) or {}).get("settings") or {}).get("controller_settings") or {}
+    solver = recorded.get("solver") or {}
+    default = SolverSettings()
+
+    def get(key):
+        return float(solver.get(key, getattr(default, key)))
+
+    # both equilibria also stop on a relative cost gain < nash_cost_rtol below nash_cost_guard
+    return {"tol": get("stackelberg_tol" if ctrl == "stackelberg" else "nash_tol"), "guard": get("nash_cost_guard"),
+            "rtol": get("nash_cost_rtol")}
 
 
 def convergence_figure(runs: Runs, case: str, out_png: Path) -> Path:
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-    for ax, (ctrl, lab) in zip(axes, CONTROLLERS.items()):
-        c = runs.csv(case, ctrl, "convergence")
-        if c is not None and len(c):
-            c["pair"] = c["vehicle_a"].astype(str) + "-" + c["vehicle_b"].astype(str)
-            for pair, g in c.groupby("pair"):
-                solves = g.groupby("time")
-                t = solves.size().idxmax()  # the solve with the most iterations
-                s = solves.get_group(t)
-                ax.semilogy(s["iteration"], s["residual"].clip(lower=1e-16), "o-",
-                            label=f"{pair} at t = {t:.2f} s ({s['status'].iloc[-1]})")
-            ax.legend()
-        ax.set(title=f"{case}, {lab}", xlabel="iteration")
-        ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
-        ax.grid(alpha=0.3, which="both")
-    axes[0].set_ylabel("residual")
-    fig.tight_layout()
-    fig.savefig(out_png, dpi=120)
-    plt.close(fig)
-    return out_png
+    panels = [(f"{case}, {lab}", runs.csv(case, ctrl, "convergence"), stopping_rule(runs, case, ctrl))
+              for ctrl, lab in CONTROLLERS.items()]
+    return figures.convergence_figure(panels, out_png, f"{case}: convergence of each pair's longest game "
+                                      "(residual = max change of any player's plan between iterations)")
 
 
 # ---------------------------------------------------------------- report
 def md_table(df: pd.DataFrame) -> str:
+    """A table of settings: values as they are (only long floats shortened)."""
     def cell(x):
         if isinstance(x, float):
             return "/" if np.isnan(x) else f"{x:.3g}" if abs(x) < 1e-3 and x else f"{x:.3f}".rstrip("0").rstrip(".")
@@ -318,11 +403,12 @@ def defaults(runs: Runs, cases: list[str]) -> tuple[dict, dict, str]:
 def write_report(out: Path, cases, tables, figs, failures, wall, budget_ms, model, solver, note) -> None:
     parts = ["# Hang et al., Section V: reproduction with intersection-cosim", "",
              f"Made by `{shlex.join(['python', *sys.argv])}` in {wall:.0f} s; scenarios: {', '.join(cases)}; "
-             f"control-step budget {budget_ms:g} ms; ETM on unless stated; min_ttc is ours, min_ttc_ssm / pet_ssm are SUMO's SSM device ('/' = no conflict).", ""]
+             f"control-step budget {budget_ms:g} ms; ETM on unless stated; 'ours' is this package's measure, 'SSM' "
+             "SUMO's SSM device (an empty cell: no conflict recorded).", ""]
     if failures:
         parts += ["## Failed runs", ""] + [f"- {n}: {e}" for n, e in failures.items()] + [""]
-    for title, df in tables:
-        parts += [f"## {title}", "", md_table(df), ""]
+    for title, df in tables:  # units in the headers, every column rounded alike (report/reporting.py)
+        parts += [f"## {title}", "", markdown_table(df), ""]
     parts += ["## Figures", ""] + [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figs] + [""]
     parts += ["## Defaults", "", "Calibrated defaults, `settings.model`:", "",
               md_table(pd.DataFrame(list(model.items()), columns=["field", "value"])), "",
@@ -334,7 +420,7 @@ def write_report(out: Path, cases, tables, figs, failures, wall, budget_ms, mode
     tmp.replace(out / "report.md")
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="report", help="report folder (default: report)")
     ap.add_argument("--workers", type=int, default=2, help="parallel runs (default: 2)")
@@ -342,12 +428,20 @@ def main() -> int:
     ap.add_argument("--budget-ms", type=float, default=BUDGET_MS,
                     help=f"control-step budget of every run [ms] (default: {BUDGET_MS:g}, never binds; "
                          "100 = the HIL box)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     if not args.budget_ms > 0:
         print(f"reproduce_paper: --budget-ms: budget_ms = {args.budget_ms:g}: must be > 0", file=sys.stderr)
         return 2
     out = Path(args.out).resolve()
-    out.mkdir(parents=True, exist_ok=True)
+    problem = check_out(out)
+    if problem is None:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            problem = f"cannot be made ({exc.strerror})"
+    if problem:
+        print(f"reproduce_paper: --out: out = {str(args.out)!r}: {problem}", file=sys.stderr)
+        return 2
     cases = QUICK if args.quick else SCENARIOS
     t0 = time.perf_counter()
     failures = play_all(out, cases, max(1, args.workers), args.budget_ms)
@@ -360,12 +454,14 @@ def main() -> int:
         df.to_csv(out / f"{name}.csv", index=False)
     figdir = out / "figures"
     figdir.mkdir(exist_ok=True)
-    figs = [compute_time_figure(runs, "case1_A", figdir / "compute_time_case1_A.png"),
+    for stale in figdir.glob("*.png"):  # figures of an earlier call (names may have changed)
+        stale.unlink()
+    figs = [compute_time_figure(runs, [c for c in QUICK if c in cases], figdir / "compute_time.png"),
             convergence_figure(runs, "case1_A", figdir / "convergence_case1_A.png")]
     figs += run_figures(runs, cases, figdir)
     tt_on = tt[tt["etm"]].drop(columns="etm")
-    write_report(out, cases, [("Table II (Case 1): min TTC [s]", t2), ("Table IV (Case 2): min TTC [s]", t4),
-                              ("Travel times [s] (ETM on)", tt_on), ("Orderings", order)],
+    write_report(out, cases, [("Table II (Case 1): min TTC", t2), ("Table IV (Case 2): min TTC", t4),
+                              ("Travel times (ETM on)", tt_on), ("Orderings", order)],
                  figs, failures, time.perf_counter() - t0, args.budget_ms, *defaults(runs, cases))
     print(order.to_string(index=False))
     print(f"report: {out / 'report.md'} ({time.perf_counter() - t0:.0f} s)")

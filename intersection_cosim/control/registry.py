@@ -87,11 +87,11 @@ def create(kind: str, settings: Any, junction_type: str) -> Controller:
 def _register_builtin() -> None:
     register("sumo", Entry(lambda settings, jtype: SumoController(junction_type=jtype),
                            None, "SUMO's own driver model and right of way"))
-    for name, fixed, what in (("sumo-priority", "priority", "priority junction (right of way by road priority)"),
-                              ("sumo-allway-stop", "allway_stop", "all-way stop"),
-                              ("sumo-tls", "traffic_light", "traffic lights, SUMO's default signal programme")):
+    for name, fixed, what in (("sumo-priority", "priority", "a priority junction (right of way by road priority)"),
+                              ("sumo-allway-stop", "allway_stop", "an all-way stop"),
+                              ("sumo-tls", "traffic_light", "traffic lights (SUMO's default signal programme)")):
         register(name, Entry(lambda settings, jtype, fixed=fixed: SumoController(junction_type=fixed),
-                             None, f"baseline: SUMO's driver model at a {what}"))
+                             None, f"baseline: SUMO's driver model at {what}"))
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
         register(name, Entry(lambda settings, jtype, name=name: GameController(name, settings),
                              GameControllerSettings, f"the paper's differential game, {what} equilibrium"))

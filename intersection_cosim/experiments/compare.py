@@ -179,18 +179,11 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
 
 
 def markdown_table(table: pd.DataFrame, columns: list[str] | None = None) -> str:
-    """A GitHub markdown table (no tabulate needed); floats to 3 significant decimals."""
-    columns = columns or list(table.columns)
+    """A GitHub markdown table with units in the headers and every column rounded alike (the
+    report layer's table format; columns without a known unit: 3 significant digits)."""
+    from intersection_cosim.report.reporting import markdown_table as table_with_units
 
-    def cell(x) -> str:
-        if isinstance(x, float):
-            return "" if math.isnan(x) else f"{x:.3g}" if abs(x) < 1000 else f"{x:.0f}"
-        return str(x)
-
-    lines = ["| " + " | ".join(columns) + " |", "|" + "|".join("---" for _ in columns) + "|"]
-    for _, row in table.iterrows():
-        lines.append("| " + " | ".join(cell(row[c]) for c in columns) + " |")
-    return "\n".join(lines)
+    return table_with_units(table, columns)
 
 
 def write_report(out: Path, table: pd.DataFrame, figures: list[Path]) -> Path:

@@ -48,10 +48,20 @@ log = logging.getLogger(__name__)
 
 
 
-def prepare_output(out: Path) -> Path:
-    """Check that ``out`` can be written and return the temporary folder to write into."""
+def prepare_output(out: Path, force: bool = False) -> Path:
+    """Check that ``out`` can be written and return the temporary folder to write into.
+
+    ``out`` must be new, an empty folder or, with ``force``, a previous run's folder (replaced
+    when the new run has finished); anything else is refused.
+    """
     out = Path(out)
-    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / RUN_MARKER).exists())):
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", "out", str(out), "is a file, not a folder")
+    if (out / RUN_MARKER).is_file():
+        if not force:
+            raise InputError("--out", "out", str(out), f"holds a finished run ({RUN_MARKER}); use --force to "
+                             "replace it, or another --out")
+    elif out.is_dir() and any(out.iterdir()):
         raise InputError("--out", "out", str(out), "exists and is not a previous run's folder; not overwriting it")
     parent = out.parent if str(out.parent) else Path(".")
     try:
@@ -76,7 +86,16 @@ def finish_output(tmp: Path, out: Path) -> None:
         os.replace(tmp, out)
 
 
-def _versions() -> dict[str, str]:
+def resolved_settings(scn: Scenario) -> dict:
+    """The settings a run of ``scn`` records in summary.json's ``settings`` (scenario, controller,
+    model and the controller's [controller.*] tables after defaults and overrides): what makes two runs the same run."""
+    return {"scenario": to_dict(scn.scenario), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
+            "controller_settings": to_dict(scn.controller_settings)
+            if dataclasses.is_dataclass(scn.controller_settings) else None}
+
+
+def versions() -> dict[str, str]:
+    """The versions a run records in summary.json (this package, SUMO, Python and the numerics)."""
     import osqp
     import scipy
 
@@ -85,9 +104,10 @@ def _versions() -> dict[str, str]:
             "osqp": getattr(osqp, "__version__", "unknown")}
 
 
-def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None, gui=None) -> dict:
+def run_scenario(scn: Scenario, out: str | Path, *, force: bool = False, fail_hook=None, gui=None) -> dict:
     """Run ``scn`` and write its results into ``out``; return the summary dict.
 
+    ``out`` holding a finished run is refused (InputError) unless ``force``, which replaces it.
     ``gui`` (a :class:`~intersection_cosim.sim.gui.GuiSettings`) shows the run live in sumo-gui;
     None (the default) runs headless through libsumo. ``fail_hook`` (tests only) is called after
     the simulation loop, before the rename, so tests can simulate a crash at the worst moment.
@@ -97,7 +117,7 @@ def run_scenario(scn: Scenario, out: str | Path, *, fail_hook=None, gui=None) ->
         from intersection_cosim.sim.gui import check_display
 
         check_display()  # before anything is written
-    tmp = prepare_output(out)
+    tmp = prepare_output(out, force)
     try:
         summary = _run_into(scn, tmp, gui)
         if fail_hook is not None:
@@ -307,10 +327,8 @@ def _summary(scn: Scenario, infos: dict, tables: _Tables, diagnostics: Diagnosti
     vehicles, pairs = tables.vehicles, tables.pairs
     summary = {
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
-        "settings": {"scenario": to_dict(s), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
-                     "controller_settings": to_dict(scn.controller_settings)
-                     if dataclasses.is_dataclass(scn.controller_settings) else None},
-        "versions": _versions(),
+        "settings": resolved_settings(scn),
+        "versions": versions(),
         "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
                    "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
                    "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),

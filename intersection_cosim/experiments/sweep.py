@@ -11,7 +11,8 @@ of a sweep (also an interrupted one), so it is exact after a crash and a rerun.
 
 Spec syntax (command line): ``--kappa V1=0.1:0.9:0.1`` (a range, both ends included, values
 rounded to 6 decimals), ``--kappa V2=0.2,0.5`` (a list) or ``--kappa V2=0.5``; ``--seeds 1-5``,
-``--seeds 1,3,7`` or a mix ``1-3,7``; ``--controller nash,stackelberg,sumo``.
+``--seeds 1,3,7`` or a mix ``1-3,7``; ``--controllers nash,stackelberg,sumo`` (``--controller``, the old
+spelling, is accepted too).
 """
 
 from __future__ import annotations
@@ -41,6 +42,9 @@ from intersection_cosim.scenario import load_scenario
 
 LOCK_FILE = ".sweep.lock"
 MAX_VALUES = 10_000  # [-] values one --kappa spec may expand to
+# The controllers whose decisions use a vehicle's kappa (the game controllers, control/game.py); SUMO's
+# own driver model (sumo, sumo-*) and the FCFS reservation (control/fcfs.py) ignore it.
+KAPPA_CONTROLLERS = ("nash", "stackelberg")
 
 
 # --- spec parsing ------------------------------------------------------------------------------
@@ -133,10 +137,10 @@ def parse_controllers(text: str) -> tuple[str, ...]:
     known = registry.names()
     for k in kinds:
         if k not in known:
-            raise InputError("--controller", "controller", text, f"unknown controller {k!r} "
+            raise InputError("--controllers", "controllers", text, f"unknown controller {k!r} "
                              f"(known: {', '.join(known)})")
     if len(set(kinds)) != len(kinds):
-        raise InputError("--controller", "controller", text, "a controller is given twice")
+        raise InputError("--controllers", "controllers", text, "a controller is given twice")
     return tuple(kinds)
 
 
@@ -181,6 +185,17 @@ def sweep_jobs(spec: SweepSpec, out: str | Path, scenario_text: str = "") -> lis
             for c, s, k in spec.grid()]
 
 
+def kappa_warning(spec: SweepSpec) -> str | None:
+    """One line naming the sweep's controllers that ignore kappa when the sweep sets kappa (their
+    runs differ only by seed, whatever --kappa says); None otherwise."""
+    blind = [c for c in spec.controllers if c not in KAPPA_CONTROLLERS]
+    if not spec.kappa or not blind:
+        return None
+    return (f"intersection-cosim: warning: {', '.join(blind)} {'ignores' if len(blind) == 1 else 'ignore'} kappa: "
+            f"{'its' if len(blind) == 1 else 'their'} runs differ only by seed, whatever --kappa says "
+            f"(kappa is used by {', '.join(KAPPA_CONTROLLERS)})")
+
+
 def check_out(spec: SweepSpec, out: Path) -> None:
     """``out`` must be new, empty, or this same sweep's folder."""
     if out.exists() and not out.is_dir():
@@ -217,17 +232,30 @@ def _clean_leftovers(out: Path) -> None:
 
 @contextlib.contextmanager
 def _locked(out: Path):
+    """Hold ``out``'s lock file while the sweep writes; remove it when done (a finished sweep
+    leaves no lock behind). A sweep that opened the file just before another removed it finds
+    its inode gone from the folder and is refused like any concurrent sweep."""
     try:
         import fcntl
     except ImportError:  # not POSIX: no lock
         yield
         return
-    with open(out / LOCK_FILE, "w") as fh:
+    lock = out / LOCK_FILE
+    busy = InputError("--out", "out", str(out), "another sweep is writing into this folder")
+    with open(lock, "w") as fh:
         try:
             fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            raise InputError("--out", "out", str(out), "another sweep is writing into this folder") from None
-        yield
+            raise busy from None
+        try:
+            if os.stat(lock).st_ino != os.fstat(fh.fileno()).st_ino:
+                raise busy
+        except FileNotFoundError:
+            raise busy from None
+        try:
+            yield
+        finally:
+            lock.unlink(missing_ok=True)  # still holding the lock: no other sweep is in between
 
 
 # --- running -----------------------------------------------------------------------------------
@@ -280,6 +308,9 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None, d
         with _locked(out):
             check_out(spec, out)  # again, now that we hold the lock
             _write_atomic(out / SPEC_FILE, json.dumps(spec.to_dict(), indent=2) + "\n")
+            warning = kappa_warning(spec)  # once, after every input check passed
+            if warning:
+                print(warning, file=sys.stderr)
             _clean_leftovers(out)
             (out / RUNS_DIR).mkdir(exist_ok=True)
             jobs = sweep_jobs(spec, out, spec.scenario_text)

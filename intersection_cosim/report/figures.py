@@ -1,9 +1,14 @@
-"""Figures of runs and sweeps (matplotlib, Agg backend): one function per figure, each writing a PNG.
+"""Figures of runs and sweeps (matplotlib, Agg backend): one function per figure, each writing a PNG;
+the ``draw_*`` functions draw one figure's content into given axes and return what they drew.
 
 Single runs: :func:`trajectory_figure` (positions every 0.5 s over a drawing of the intersection,
-like the paper's Figs. 4 and 8) and :func:`velocity_figure` (speed against time, Figs. 5 and 9).
-Sweeps: :func:`kappa_heatmap` (a metric over two kappa axes), :func:`kappa_lines` (a metric against
-one kappa, one line per controller) and :func:`compute_time_histogram`.
+coloured by time, like the paper's Figs. 4 and 8) and :func:`velocity_figure` (speed against time
+with the conflict-zone entry and exit marked, Figs. 5 and 9). Paper report: :func:`convergence_figure`
+(residual per iteration against the tolerance, Fig. 3) and :func:`draw_ecdf` (compute-time
+distributions, Fig. 7). Sweeps: :func:`kappa_tradeoff` (one vehicle's travel time against its min
+TTC and PET, one point per kappa value), :func:`kappa_heatmap` (a metric over two kappa axes),
+:func:`kappa_lines` (a metric against one kappa, one line per controller) and
+:func:`compute_time_histogram`.
 """
 
 from __future__ import annotations
@@ -18,6 +23,10 @@ matplotlib.use("Agg")  # no display; must precede pyplot
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+import matplotlib.cm  # noqa: E402
+import matplotlib.colors  # noqa: E402
+import matplotlib.ticker  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Polygon, Rectangle  # noqa: E402
 
 DPI = 120
@@ -27,6 +36,10 @@ LANES_PER_ROAD = 3
 CONFLICT_HALF = 12.0  # [m] the conflict zone is |x|, |y| <= 12
 ROAD_COLOUR = "#d9d9d9"
 MARKING_COLOUR = "#7f7f7f"
+TIME_CMAP = "viridis"  # trajectory points coloured by time
+TRAJECTORY_MARKERS = ("o", "^", "D", "v", "P", "X", "<", ">", "h", "*")  # one per vehicle
+LINE_STYLES = ("-", "--", "-.", ":")  # velocity lines, one per vehicle (besides its colour)
+SHARED_LANE_OFFSET = 1.4  # [m] sideways between vehicles drawn on a common lane
 
 METRIC_LABELS = {
     "mean_travel_time": "mean travel time [s]",
@@ -144,6 +157,79 @@ def _every(times: np.ndarray, interval: float) -> np.ndarray:
     return np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
 
 
+def shared_lane_offsets(traj: pd.DataFrame, ids: list[str] | None = None) -> dict[str, float]:
+    """[m] sideways drawing offset of each vehicle: vehicles that drive on a common lane (the
+    ``lane`` column) are spread SHARED_LANE_OFFSET apart around their path, in ``ids`` order, so
+    their points do not hide each other; 0 for a vehicle that shares no lane."""
+    ids = ids or list(dict.fromkeys(traj["vehicle"]))
+    lanes = {vid: set(traj.loc[traj["vehicle"] == vid, "lane"].dropna()) for vid in ids}
+    group = {vid: {vid} for vid in ids}
+    for a, b in itertools.combinations(ids, 2):
+        if lanes[a] & lanes[b] and group[a] is not group[b]:
+            merged = group[a] | group[b]
+            for vid in merged:
+                group[vid] = merged
+    offsets = {}
+    for vid in ids:
+        members = [v for v in ids if v in group[vid]]
+        offsets[vid] = (members.index(vid) - (len(members) - 1) / 2) * SHARED_LANE_OFFSET
+    return offsets
+
+
+def _left_normals(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Unit normals to the left of the direction of travel along (x, y); a standing vehicle keeps
+    the direction it last moved in (or its first one)."""
+    d = np.column_stack([np.gradient(x), np.gradient(y)]) if len(x) > 1 else np.array([[1.0, 0.0]])
+    norm = np.linalg.norm(d, axis=1)
+    moving = np.flatnonzero(norm > 1e-6)
+    if not len(moving):
+        return np.tile([0.0, 1.0], (len(x), 1))
+    idx = np.maximum.accumulate(np.where(norm > 1e-6, np.arange(len(x)), -1))
+    idx[idx < 0] = moving[0]
+    d = d[idx] / norm[idx, None]
+    return np.column_stack([-d[:, 1], d[:, 0]])
+
+
+def draw_trajectories(ax, traj: pd.DataFrame, vehicles: pd.DataFrame | None = None,
+                      interval: float = POINT_INTERVAL) -> dict[str, pd.DataFrame]:
+    """Every vehicle's points every ``interval`` [s], coloured by time (one colour scale, so points
+    of one colour are simultaneous), one marker shape per vehicle, a start square labelled with its
+    id; vehicles sharing a lane drawn side by side (:func:`shared_lane_offsets`). Returns the drawn
+    points per vehicle (time, x, y after the offset)."""
+    ids = _vehicle_order(traj, vehicles)
+    offsets = shared_lane_offsets(traj, ids)
+    norm = matplotlib.colors.Normalize(0.0, max(float(traj["time"].max()) if len(traj) else 1.0, 1e-9))
+    cmap = plt.get_cmap(TIME_CMAP)
+    markers = {vid: TRAJECTORY_MARKERS[i % len(TRAJECTORY_MARKERS)] for i, vid in enumerate(ids)}
+    drawn = {}
+    for vid in ids:
+        rows = traj[traj["vehicle"] == vid].sort_values("time")
+        xy = rows[["x", "y"]].to_numpy(float) + offsets[vid] * _left_normals(rows["x"].to_numpy(float),
+                                                                             rows["y"].to_numpy(float))
+        ax.plot(xy[:, 0], xy[:, 1], color="#404040", lw=0.7, alpha=0.6, zorder=2)
+        keep = _every(rows["time"].to_numpy(), interval)
+        points = pd.DataFrame({"time": rows["time"].to_numpy()[keep], "x": xy[keep, 0], "y": xy[keep, 1]})
+        ax.scatter(points["x"], points["y"], c=points["time"], cmap=cmap, norm=norm, marker=markers[vid], s=30,
+                   edgecolors="black", linewidths=0.4, zorder=3)
+        if len(points):
+            ax.scatter(points["x"].iloc[:1], points["y"].iloc[:1], s=110, marker="s", facecolor="none",
+                       edgecolor="black", lw=1.3, zorder=4)
+            ax.annotate(vid, (points["x"].iloc[0], points["y"].iloc[0]), xytext=(6, 6), textcoords="offset points",
+                        fontsize=8, fontweight="bold", zorder=5,
+                        bbox=dict(boxstyle="round,pad=0.15", facecolor="white", edgecolor="none", alpha=0.8))
+        drawn[vid] = points
+    if len(ids) <= 12:
+        handles = [Line2D([], [], ls="", marker=markers[vid], markerfacecolor="#bfbfbf", markeredgecolor="black",
+                          markersize=7, label=_label(vid, vehicles)) for vid in ids]
+        handles += [Line2D([], [], ls="", marker="s", markerfacecolor="none", markeredgecolor="black", markersize=10,
+                           label="start"),
+                    Rectangle((0, 0), 1, 1, fill=False, edgecolor="#c0392b", ls="--", label="conflict zone")]
+        ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
+    ax.figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.8, pad=0.02,
+                       label="time [s]")
+    return drawn
+
+
 def trajectory_figure(run_dir: Path, out_png: Path, title: str | None = None) -> Path:
     """Positions of every vehicle every 0.5 s over the intersection (paper's Figs. 4 and 8).
 
@@ -152,48 +238,86 @@ def trajectory_figure(run_dir: Path, out_png: Path, title: str | None = None) ->
     """
     run_dir = Path(run_dir)
     traj, vehicles = _read_run(run_dir)
-    ids = _vehicle_order(traj, vehicles)
-    colours = _vehicle_colours(ids)
     reach = float(np.nanmax(np.abs(traj[["x", "y"]].to_numpy()))) if len(traj) else 30.0
     extent = float(np.clip(reach + 5.0, 30.0, 80.0))
-    fig, ax = plt.subplots(figsize=(6.4, 6.4), layout="constrained")
+    fig, ax = plt.subplots(figsize=(7.4, 6.4), layout="constrained")
     draw_intersection(ax, run_dir / "intersection.net.xml", extent)
-    for vid in ids:
-        rows = traj[traj["vehicle"] == vid].sort_values("time")
-        keep = rows.iloc[_every(rows["time"].to_numpy(), POINT_INTERVAL)]
-        ax.scatter(keep["x"], keep["y"], s=14, color=colours[vid], zorder=3,
-                   label=_label(vid, vehicles) if len(ids) <= 12 else None)
-        ax.scatter(keep["x"].iloc[:1], keep["y"].iloc[:1], s=60, marker="s", facecolor="none",
-                   edgecolor=colours[vid], zorder=3)
+    draw_trajectories(ax, traj, vehicles)
     ax.set_xlim(-extent, extent)
     ax.set_ylim(-extent, extent)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(title or f"Trajectories ({run_dir.name}), points every {POINT_INTERVAL:g} s")
-    if len(ids) <= 12:
-        ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
+    shared = " (vehicles sharing a lane drawn side by side)" if len(set(shared_lane_offsets(traj).values())) > 1 \
+        else ""
+    ax.set_title(f"{title or f'Trajectories ({run_dir.name})'}\npoints every {POINT_INTERVAL:g} s, colour = time"
+                 f"{shared}", fontsize=10)
     return _save(fig, out_png)
 
 
-def velocity_figure(run_dir: Path, out_png: Path, title: str | None = None) -> Path:
-    """Speed against time of every vehicle (paper's Figs. 5 and 9), from ``trajectories.csv``."""
-    run_dir = Path(run_dir)
-    traj, vehicles = _read_run(run_dir)
+def zone_events(traj: pd.DataFrame) -> pd.DataFrame:
+    """Per vehicle, when it entered the conflict zone (its first ``passing`` row) and left it (the
+    first ``outside`` row after that), with its speeds then; NaN for what did not happen."""
+    rows = []
+    for vid, g in traj.sort_values("time").groupby("vehicle", sort=False):
+        role = g["role"].to_numpy()
+        inside = np.flatnonzero(role == "passing")
+        entry = inside[0] if len(inside) else None
+        after = np.flatnonzero(role[entry:] == "outside") + entry if entry is not None else np.zeros(0, int)
+        leave = after[0] if len(after) else None
+        t, v = g["time"].to_numpy(float), g["speed"].to_numpy(float)
+        rows.append({"vehicle": vid,
+                     "entry_time": t[entry] if entry is not None else np.nan,
+                     "entry_speed": v[entry] if entry is not None else np.nan,
+                     "exit_time": t[leave] if leave is not None else np.nan,
+                     "exit_speed": v[leave] if leave is not None else np.nan})
+    return pd.DataFrame(rows, columns=["vehicle", "entry_time", "entry_speed", "exit_time", "exit_speed"])
+
+
+def draw_velocity(ax, traj: pd.DataFrame, vehicles: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Speed against time, one colour and line style per vehicle, the stretch inside the conflict
+    zone drawn wide, entry (triangle) and exit (square) marked; returns :func:`zone_events`."""
     ids = _vehicle_order(traj, vehicles)
     colours = _vehicle_colours(ids)
-    fig, ax = plt.subplots(figsize=(7.0, 4.0), layout="constrained")
-    for vid in ids:
+    events = zone_events(traj).set_index("vehicle")
+    for i, vid in enumerate(ids):
         rows = traj[traj["vehicle"] == vid].sort_values("time")
-        ax.plot(rows["time"], rows["speed"], color=colours[vid], lw=1.6,
+        ax.plot(rows["time"], rows["speed"], color=colours[vid], lw=1.6, ls=LINE_STYLES[i % len(LINE_STYLES)],
                 label=_label(vid, vehicles) if len(ids) <= 12 else None)
+        ev = events.loc[vid]
+        if np.isfinite(ev["entry_time"]):
+            end = ev["exit_time"] if np.isfinite(ev["exit_time"]) else rows["time"].max()
+            inside = rows[(rows["time"] >= ev["entry_time"]) & (rows["time"] <= end)]
+            ax.plot(inside["time"], inside["speed"], color=colours[vid], lw=6, alpha=0.25, solid_capstyle="butt")
+            ax.plot([ev["entry_time"]], [ev["entry_speed"]], ls="", marker=">", ms=8, color=colours[vid],
+                    markeredgecolor="black", gid=f"entry:{vid}", zorder=4)
+        if np.isfinite(ev["exit_time"]):
+            ax.plot([ev["exit_time"]], [ev["exit_speed"]], ls="", marker="s", ms=7, color=colours[vid],
+                    markeredgecolor="black", gid=f"exit:{vid}", zorder=4)
+    handles, _ = ax.get_legend_handles_labels()
+    handles += [Line2D([], [], ls="", marker=">", ms=8, color="#bfbfbf", markeredgecolor="black",
+                       label="enters the conflict zone"),
+                Line2D([], [], ls="", marker="s", ms=7, color="#bfbfbf", markeredgecolor="black",
+                       label="leaves the conflict zone"),
+                Line2D([], [], color="#bfbfbf", lw=6, alpha=0.6, label="inside the conflict zone")]
+    if len(ids) <= 12:
+        ax.legend(handles=handles, fontsize=8, loc="best", framealpha=0.9)
+    return events.reset_index()
+
+
+def velocity_figure(run_dir: Path, out_png: Path, title: str | None = None) -> Path:
+    """Speed against time of every vehicle (paper's Figs. 5 and 9), from ``trajectories.csv``,
+    with each vehicle's entry into and exit from the conflict zone marked."""
+    run_dir = Path(run_dir)
+    traj, vehicles = _read_run(run_dir)
+    fig, ax = plt.subplots(figsize=(7.4, 4.4), layout="constrained")
+    draw_velocity(ax, traj, vehicles)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("speed [m/s]")
     ax.set_ylim(bottom=0)
+    ax.set_xlim(left=0)
     ax.grid(alpha=0.3)
     ax.set_title(title or f"Velocity ({run_dir.name})")
-    if len(ids) <= 12:
-        ax.legend(fontsize=8)
     return _save(fig, out_png)
 
 
@@ -221,6 +345,89 @@ def compute_time_histogram(samples: Mapping[str, np.ndarray], out_png: Path, tit
     ax.grid(alpha=0.3)
     ax.set_title(title or "Controller compute time per step")
     return _save(fig, out_png)
+
+
+RESIDUAL_LABEL = "max change of any player's plan\nbetween iterations [m/s$^2$]"
+RESIDUAL_FLOOR = 1e-4  # [m/s^2] bottom of the convergence axis; smaller residuals (and 0) are drawn on it
+
+
+def draw_convergence(ax, conv: pd.DataFrame | None, tol: float, guard: float | None = None,
+                     rtol: float | None = None) -> dict[str, pd.DataFrame]:
+    """The residual of every pair's longest solve against the iteration (log y from RESIDUAL_FLOOR,
+    integer x), with the tolerance ``tol`` [m/s^2] as a horizontal line and, when given, the guard
+    [m/s^2] below which a relative cost gain under ``rtol`` also ends a game (games/settings.py
+    nash_cost_guard, nash_cost_rtol); returns the drawn points per pair (iteration, residual as drawn)."""
+    drawn: dict[str, pd.DataFrame] = {}
+    top, last = tol, 1
+    if conv is not None and len(conv):
+        conv = conv.assign(pair=conv["vehicle_a"].astype(str) + "-" + conv["vehicle_b"].astype(str))
+        for pair, g in conv.groupby("pair"):
+            solves = g.groupby("time")
+            t = solves.size().idxmax()  # the solve with the most iterations
+            s = solves.get_group(t).sort_values("iteration")
+            y = s["residual"].to_numpy(float).clip(min=RESIDUAL_FLOOR)
+            ax.plot(s["iteration"], y, "o-", ms=6, label=f"{pair}, solve at t = {t:.2f} s ({s['status'].iloc[-1]}, "
+                    f"{len(s)} iterations)")
+            drawn[pair] = pd.DataFrame({"iteration": s["iteration"].to_numpy(int), "residual": y})
+            top, last = max(top, float(y.max())), max(last, int(s["iteration"].max()))
+    else:
+        ax.text(0.5, 0.5, "no games played", ha="center", va="center", transform=ax.transAxes)
+    ax.axhline(tol, color="#c0392b", ls="--", lw=1.3, gid="tolerance", label=f"tolerance {tol:g} m/s$^2$: converged below")
+    if guard is not None:
+        top = max(top, guard)
+        gain = f"a cost gain < {rtol:.1%} " if rtol is not None else "a small cost gain "
+        ax.axhline(guard, color="#595959", ls=":", lw=1.3, gid="guard",
+                   label=f"{guard:g} m/s$^2$: below it {gain}also ends the game")
+    ax.set_yscale("log")
+    ax.set_ylim(RESIDUAL_FLOOR / 1.5, top * 2.0)
+    ax.set_xlim(0.5, last + 0.5)
+    ax.xaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    floor = any((d["residual"] <= RESIDUAL_FLOOR).any() for d in drawn.values())
+    ax.set_xlabel("iteration" + (f"   (residuals below {RESIDUAL_FLOOR:g}, or 0, drawn at {RESIDUAL_FLOOR:g})"
+                                 if floor else ""))
+    ax.set_ylabel(RESIDUAL_LABEL)
+    ax.grid(alpha=0.3, which="major")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)  # below: no point hidden
+    return drawn
+
+
+def convergence_figure(panels: list[tuple[str, pd.DataFrame | None, dict]], out_png: Path,
+                       title: str | None = None) -> Path:
+    """One :func:`draw_convergence` panel per (title, convergence.csv table, its keyword arguments:
+    tol and optionally guard, rtol)."""
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.8 * len(panels), 5.4), squeeze=False, layout="constrained")
+    for ax, (name, conv, limits) in zip(axes[0], panels, strict=True):
+        draw_convergence(ax, conv, **limits)
+        ax.set_title(name, fontsize=10)
+    fig.suptitle(title or "Convergence of the pair games (the longest solve of each pair)", fontsize=11)
+    return _save(fig, out_png)
+
+
+def draw_ecdf(ax, samples: Mapping[str, np.ndarray], styles: Mapping[str, dict] | None = None,
+              extra: Mapping[str, str] | None = None) -> dict[str, np.ndarray]:
+    """Empirical CDFs of compute times [ms] (log x): the share of control steps that took at most
+    x; the legend gives each sample's median and mean (and ``extra[label]``). Returns the sorted
+    values drawn per label."""
+    drawn = {}
+    for label, values in samples.items():
+        v = np.sort(np.asarray(values, float)[np.isfinite(values)])
+        if not len(v):
+            continue
+        shown = np.clip(v, 1e-3, None)  # [ms] a log axis has no 0
+        y = np.arange(1, len(v) + 1) / len(v)
+        more = f", {extra[label]}" if extra and label in extra else ""
+        ax.step(np.r_[shown[0], shown], np.r_[0.0, y], where="post", lw=1.6,
+                label=f"{label}: median {np.median(v):.2f} ms, mean {v.mean():.2f} ms{more}",
+                **(styles or {}).get(label, {}))
+        drawn[label] = v
+    ax.set_xscale("log")
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("compute time per control step [ms]")
+    ax.set_ylabel("share of control steps\ntaking at most this long [-]")
+    ax.grid(alpha=0.3, which="both")
+    if drawn:
+        ax.legend(fontsize=8, loc="lower right")
+    return drawn
 
 
 def _ok(table: pd.DataFrame) -> pd.DataFrame:
@@ -252,8 +459,8 @@ def kappa_heatmap(table: pd.DataFrame, metric: str, x: str, y: str, out_png: Pat
         im = ax.imshow(g, origin="lower", cmap="viridis", vmin=vmin, vmax=vmax, aspect="auto")
         ax.set_xticks(range(len(xs)), [f"{v:g}" for v in xs], rotation=45 if len(xs) > 6 else 0)
         ax.set_yticks(range(len(ys)), [f"{v:g}" for v in ys])
-        ax.set_xlabel(x.replace("kappa_", "$\\kappa$ ") if x.startswith("kappa_") else x)
-        ax.set_ylabel(y.replace("kappa_", "$\\kappa$ ") if y.startswith("kappa_") else y)
+        ax.set_xlabel(_axis_label(x))
+        ax.set_ylabel(_axis_label(y))
         ax.set_title(c)
         if g.size <= 100:
             for (i, j) in itertools.product(range(g.shape[0]), range(g.shape[1])):
@@ -265,21 +472,133 @@ def kappa_heatmap(table: pd.DataFrame, metric: str, x: str, y: str, out_png: Pat
     return _save(fig, out_png)
 
 
+COUNT_METRICS = ("collisions", "deadline_misses", "fallbacks", "arrived", "vehicles")  # integer y axis
+FEW_POINTS = 6  # [-] lines with at most this many points get large markers and their values written
+
+
+def _axis_label(column: str) -> str:
+    return column.replace("kappa_", "$\\kappa$ of ") if column.startswith("kappa_") else column
+
+
 def kappa_lines(table: pd.DataFrame, metric: str, axis: str, out_png: Path, title: str | None = None) -> Path:
-    """``metric`` against the kappa axis ``axis``, one line per controller: the mean over seeds and
-    the other axes, with their min-max range shaded."""
-    ok = _ok(table)
+    """``metric`` against the kappa axis ``axis`` (:func:`draw_kappa_lines`), written to ``out_png``."""
     fig, ax = plt.subplots(figsize=(6.4, 4.0), layout="constrained")
-    for c in dict.fromkeys(ok["controller"]):
+    draw_kappa_lines(ax, table, metric, axis)
+    ax.set_title(title or f"{metric_label(metric)} against {_axis_label(axis)}")
+    return _save(fig, out_png)
+
+
+def draw_kappa_lines(ax, table: pd.DataFrame, metric: str, axis: str) -> None:
+    """``metric`` against the kappa axis ``axis``, one line per controller: the mean over seeds and
+    the other axes, with their min-max range shaded. Few points get large markers with their
+    values; a metric that is the same in every run gets an axis from 0 and says so."""
+    ok = _ok(table)
+    controllers = list(dict.fromkeys(ok["controller"]))
+    xs = sorted(ok[axis].unique()) if len(ok) else []
+    few = len(xs) <= FEW_POINTS
+    values = ok[metric].astype(float).to_numpy() if metric in ok else np.zeros(0)
+    values = values[np.isfinite(values)]
+    constant = bool(len(values)) and values.min() == values.max()
+    for c in controllers:
         g = ok[ok["controller"] == c].groupby(axis)[metric].agg(["mean", "min", "max"]).sort_index()
-        line, = ax.plot(g.index, g["mean"], marker="o", lw=1.6, label=c)
+        line, = ax.plot(g.index, g["mean"], marker="o", ms=8 if few else 5, lw=1.6, label=c)
         if (g["max"] > g["min"]).any():
             ax.fill_between(g.index, g["min"], g["max"], color=line.get_color(), alpha=0.15, lw=0)
-    ax.set_xlabel(axis.replace("kappa_", "$\\kappa$ ") if axis.startswith("kappa_") else axis)
+        if few and len(controllers) <= 3 and not constant:
+            for x, y in g["mean"].items():
+                if np.isfinite(y):
+                    ax.annotate(_short(y, metric), (x, y), xytext=(0, 7), textcoords="offset points", ha="center",
+                                fontsize=8, color=line.get_color())
+    if constant:  # the same in every run: an axis from 0, not -0.04..0.04 around the value
+        c = float(values[0])
+        lo, hi = (0.0, max(1.0, 2.0 * c)) if c >= 0 else (2.0 * c, 0.0)
+        ax.set_ylim(lo - 0.04 * (hi - lo), hi)
+        ax.text(0.5, 0.92, f"{_short(c, metric)} in every run ({len(values)} runs)", ha="center", va="top",
+                transform=ax.transAxes, fontsize=9, bbox=dict(facecolor="white", edgecolor="#bfbfbf"))
+    if metric in COUNT_METRICS:
+        ax.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    if len(xs) <= 10:
+        ax.set_xticks(xs, [f"{x:g}" for x in xs])
+    if few and not constant:
+        ax.margins(y=0.15)  # room for the values written above the points
+    ax.set_xlabel(_axis_label(axis))
     ax.set_ylabel(metric_label(metric))
     ax.grid(alpha=0.3)
     ax.legend(title="controller", fontsize=8)
-    ax.set_title(title or f"{metric_label(metric)} against {axis}")
+
+
+def _short(value: float, metric: str) -> str:
+    return f"{value:.0f}" if metric in COUNT_METRICS else f"{value:.2f}"
+
+
+def vehicle_pair_columns(table: pd.DataFrame, vehicle: str, measure: str) -> list[str]:
+    """sweep.csv's per-pair columns of ``measure`` (``min_ttc`` or ``pet``) for pairs with ``vehicle``."""
+    out = []
+    for col in table.columns:
+        if col.startswith(f"{measure}_") and not col.startswith("min_ttc_ssm_"):
+            pair = col[len(measure) + 1:]  # "<a>_<b>"
+            if pair.startswith(f"{vehicle}_") or pair.endswith(f"_{vehicle}"):
+                out.append(col)
+    return out
+
+
+def tradeoff_points(table: pd.DataFrame, vehicle: str) -> pd.DataFrame:
+    """One row per controller and kappa value of ``vehicle``: the means over seeds and other axes
+    of its travel time [s] and of the smallest min TTC (ours) and SSM PET [s] over its pairs (the
+    run's minimum where sweep.csv has no pair columns for it)."""
+    ok = _ok(table)
+    axis = f"kappa_{vehicle}"
+    rows = ok[["controller", axis]].copy()
+    rows["travel_time"] = ok.get(f"travel_time_{vehicle}", ok.get("mean_travel_time"))
+    for measure, fallback, name in (("min_ttc", "min_ttc", "min_ttc"), ("pet", "min_pet", "min_pet")):
+        cols = vehicle_pair_columns(ok, vehicle, measure)
+        rows[name] = ok[cols].astype(float).min(axis=1) if cols else ok.get(fallback, np.nan)
+    points = rows.groupby(["controller", axis], sort=False).mean(numeric_only=True).reset_index()
+    return points.rename(columns={axis: "kappa"}).sort_values(["controller", "kappa"], kind="stable")
+
+
+def draw_kappa_tradeoff(axes, table: pd.DataFrame, vehicle: str) -> pd.DataFrame:
+    """Two panels: ``vehicle``'s travel time against its min TTC (``axes[0]``) and min PET
+    (``axes[1]``), one point per kappa value labelled with it, joined in kappa order, one marker
+    per controller; returns :func:`tradeoff_points`."""
+    points = tradeoff_points(table, vehicle)
+    norm = matplotlib.colors.Normalize(0.0, 1.0)
+    cmap = plt.get_cmap("coolwarm")  # blue cautious, red aggressive
+    for ax, column, label in ((axes[0], "min_ttc", f"min TTC of {vehicle}'s conflicts, ours [s]"),
+                              (axes[1], "min_pet", f"min PET of {vehicle}'s conflicts, SUMO SSM [s]")):
+        for i, (c, g) in enumerate(points.groupby("controller", sort=False)):
+            g = g[np.isfinite(g[column]) & np.isfinite(g["travel_time"])]
+            ax.plot(g["travel_time"], g[column], color="#7f7f7f", lw=0.9, zorder=2)
+            ax.scatter(g["travel_time"], g[column], c=g["kappa"], cmap=cmap, norm=norm, s=70, zorder=3,
+                       marker=TRAJECTORY_MARKERS[i % len(TRAJECTORY_MARKERS)], edgecolors="black", linewidths=0.6,
+                       label=c)
+            for k, (_, r) in enumerate(g.iterrows()):  # labels alternate above and below: neighbours stay apart
+                ax.annotate(f"$\\kappa$ {r['kappa']:g}", (r["travel_time"], r[column]),
+                            xytext=(7, 5) if k % 2 == 0 else (7, -12), textcoords="offset points", fontsize=8,
+                            gid="kappa-label")
+        if not np.isfinite(points[column]).any():
+            ax.text(0.5, 0.5, "not recorded (no conflict measured)", ha="center", va="center",
+                    transform=ax.transAxes)
+        ax.margins(0.12)  # room for the kappa labels
+        ax.set_xlabel(f"travel time of {vehicle} [s]")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        ax.text(0.02, 0.98, "better: up and to the left", ha="left", va="top", transform=ax.transAxes, fontsize=8,
+                color="#595959")
+        if points["controller"].nunique() > 1:
+            ax.legend(title="controller", fontsize=8, loc="lower right")
+    return points
+
+
+def kappa_tradeoff(table: pd.DataFrame, vehicle: str, out_png: Path, title: str | None = None) -> Path:
+    """The paper's thesis in one picture (:func:`draw_kappa_tradeoff`): how ``vehicle``'s
+    aggressiveness trades its safety margins for its passing time."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
+    points = draw_kappa_tradeoff(axes, table, vehicle)
+    fig.colorbar(matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, 1), cmap="coolwarm"),
+                 ax=axes.tolist(), shrink=0.85, label=f"$\\kappa$ of {vehicle} (aggressiveness)")
+    span = f"{points['kappa'].min():g}-{points['kappa'].max():g}" if len(points) else "none"
+    fig.suptitle(title or f"Aggressiveness against safety: {vehicle}'s kappa {span} (mean over seeds)", fontsize=11)
     return _save(fig, out_png)
 
 

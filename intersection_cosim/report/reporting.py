@@ -29,6 +29,7 @@ from intersection_cosim.results.sweep_folder import load_spec, sweep_table
 
 REPORT_FILE = "report.md"
 FIGURES_DIR = "figures"
+TRADEOFF_PNG = "kappa_tradeoff_{vehicle}.png"  # a sweep's trade-off figure, in FIGURES_DIR
 SWEEP_METRICS = ("mean_travel_time", "min_ttc", "min_ttc_ssm", "collisions")  # heatmaps and lines
 # (metric, label, unit, higher is better)
 RANKINGS = (("mean_travel_time", "mean travel time", "s", False),
@@ -53,23 +54,68 @@ def write_report(folder: str | Path) -> Path:
 
 # --- helpers -----------------------------------------------------------------------------------
 
-def _fmt(value, digits: int = 4) -> str:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
+# Table headers and rounding: every report.md table shows a column's unit and rounds it alike.
+# (name or prefix, header, decimals): decimals None = an integer count; a prefix ends in "_" and the
+# rest of the column name (a vehicle, a pair "V1_V2") goes into the header.
+COLUMN_FORMATS = (
+    ("run_id", "run", "text"), ("seed", "seed", "text"), ("exit_lane", "exit lane", "text"),
+    ("vehicle_a", "vehicle a", "text"), ("vehicle_b", "vehicle b", "text"), ("kappa_", "κ {} [-]", 2), ("kappa", "κ [-]", 2),
+    ("mean_travel_time", "mean travel time [s]", 2), ("travel_time_mean", "travel time, mean [s]", 2),
+    ("travel_time_p95", "travel time, p95 [s]", 2), ("travel_time_", "travel time {} [s]", 2),
+    ("travel_time", "travel time [s]", 2), ("time_loss_mean", "time loss, mean [s]", 2),
+    ("time_loss", "time loss [s]", 2), ("depart", "depart [s]", 2), ("arrival", "arrival [s]", 2),
+    ("min_ttc_ssm_", "min TTC {}, SSM [s]", 2), ("min_ttc_ssm", "min TTC, SSM [s]", 2),
+    ("ssm_min_ttc", "min TTC, SSM [s]", 2), ("min_ttc_", "min TTC {}, ours [s]", 2),
+    ("min_ttc", "min TTC, ours [s]", 2), ("pet_ssm", "PET, SSM [s]", 2), ("pet_", "PET {}, SSM [s]", 2),
+    ("min_pet", "min PET, SSM [s]", 2), ("ssm_min_pet", "min PET, SSM [s]", 2),
+    ("compute_ms_median", "compute median [ms]", 2), ("compute_ms_p95", "compute p95 [ms]", 2),
+    ("throughput_veh_h", "throughput [veh/h]", 0), ("demand_veh_h", "demand [veh/h]", 0),
+    ("ssm_share_under_thresholds", "share of SSM encounters under thresholds [-]", 3),
+    ("deadline_miss_share", "share of steps missing the deadline [-]", 4),
+    ("deferred_step_share", "share of steps with deferred work [-]", 4),
+    *((name, f"{name.replace('_', ' ')} [-]", None) for name in (
+        "collisions", "arrived", "vehicles", "departed", "deadline_misses", "fallbacks", "control_steps",
+        "game_steps", "seeds", "runs_ok", "ssm_encounters", "late_or_stuck", "steps_with_deferred_work",
+        "safety_interventions", "box_rule_clearances")),
+)
+
+
+def column_format(column: str) -> tuple[str, int | str | None]:
+    """(header with unit, decimals) of a table column; decimals None: an integer, "text": as is,
+    "sig": 3 significant digits (a column without a known unit keeps its name)."""
+    for name, header, decimals in COLUMN_FORMATS:
+        if column == name:
+            return header.replace(" {}", ""), decimals
+        if name.endswith("_") and column.startswith(name):
+            return header.format(column[len(name):].replace("_", "-")), decimals
+    return column, "sig"
+
+
+def format_cell(value, decimals: int | str | None = "sig") -> str:
+    if value is None or (isinstance(value, (float, np.floating)) and math.isnan(value)):
         return ""
     if isinstance(value, (bool, np.bool_)):
         return str(bool(value))
-    if isinstance(value, (int, np.integer)):
-        return str(int(value))
-    if isinstance(value, (float, np.floating)):
-        return f"{float(value):.{digits}g}"
+    if isinstance(value, (int, np.integer, float, np.floating)) and decimals != "text":
+        if decimals == "sig":
+            if isinstance(value, (int, np.integer)):
+                return str(int(value))
+            return f"{float(value):.3g}" if abs(value) < 1000 else f"{float(value):.0f}"
+        return f"{float(value):.0f}" if decimals is None else f"{float(value):.{decimals}f}"
     return str(value).replace("|", "\\|").replace("\n", " ")
 
 
+def _fmt(value, column: str = "") -> str:
+    return format_cell(value, column_format(column)[1])
+
+
 def markdown_table(df: pd.DataFrame, columns=None) -> str:
+    """A markdown table with units in the headers and each column rounded by :func:`column_format`."""
     cols = [c for c in (columns or df.columns) if c in df.columns]
-    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    formats = [column_format(c) for c in cols]
+    lines = ["| " + " | ".join(h for h, _ in formats) + " |", "|" + "---|" * len(cols)]
     for _, row in df[cols].iterrows():
-        lines.append("| " + " | ".join(_fmt(row[c]) for c in cols) + " |")
+        lines.append("| " + " | ".join(format_cell(row[c], d) for c, (_, d) in zip(cols, formats, strict=True)) + " |")
     return "\n".join(lines)
 
 
@@ -106,6 +152,12 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
     out: list[tuple[str, str]] = []
     metrics = [m for m in SWEEP_METRICS if m in ok and ok[m].notna().any()]
     axes = spec.axes
+    vehicle = tradeoff_vehicle(spec)
+    if vehicle is not None and len(ok):
+        png = figs / TRADEOFF_PNG.format(vehicle=vehicle)
+        fig.kappa_tradeoff(ok, vehicle, png)
+        out.append((f"Trade-off: {vehicle}'s travel time against its min TTC and PET, one point per kappa value "
+                    "(more aggressive: faster, closer)", str(png.relative_to(folder))))
     for metric in metrics:
         for x, y in itertools.combinations(axes, 2):
             png = figs / f"heatmap_{metric}_{x}_{y}.png"
@@ -128,6 +180,13 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
                                budget_ms=_budget(folder, ok))
     out.append(("compute time per control step", str(png.relative_to(folder))))
     return out
+
+
+def tradeoff_vehicle(spec) -> str | None:
+    """The vehicle whose kappa the sweep varies, when it varies exactly one vehicle's (others may be
+    set to one value): the sweep then gets the kappa trade-off figure."""
+    varied = [vid for vid, values in spec.kappa if len(values) > 1]
+    return varied[0] if len(varied) == 1 else None
 
 
 def _budget(folder: Path, ok: pd.DataFrame) -> float | None:
@@ -163,8 +222,8 @@ def sweep_report(folder: Path) -> Path:
             continue
         best, worst = bw
         note = " (all runs tie)" if best[metric] == worst[metric] else ""
-        rank_rows.append(f"| {label}{note} | `{best['run_id']}` | {_fmt(best[metric])} {unit} | "
-                         f"`{worst['run_id']}` | {_fmt(worst[metric])} {unit} |")
+        rank_rows.append(f"| {label}{note} | `{best['run_id']}` | {_fmt(best[metric], metric)} {unit} | "
+                         f"`{worst['run_id']}` | {_fmt(worst[metric], metric)} {unit} |")
     lines += ["| by | best | value | worst | value |", "|---|---|---|---|---|", *rank_rows, "",
               "Lower mean travel time is better; a higher min TTC is better. Ties go to the first run in grid "
               "order.", "", "## Figures", ""]
@@ -191,9 +250,9 @@ def run_report(folder: Path) -> Path:
     summary = json.loads((folder / RUN_MARKER).read_text())
     figs = _fresh_figures(folder)
     title = f"{summary.get('scenario', folder.name)}, {summary.get('controller', '')}, seed {summary.get('seed', '')}"
-    figures = [("trajectories (points every 0.5 s)", fig.trajectory_figure(folder, figs / "trajectory.png",
+    figures = [("trajectories (points every 0.5 s, colour = time)", fig.trajectory_figure(folder, figs / "trajectory.png",
                                                                           f"Trajectories: {title}")),
-               ("velocity", fig.velocity_figure(folder, figs / "velocity.png", f"Velocity: {title}"))]
+               ("velocity (entry into and exit from the conflict zone marked)", fig.velocity_figure(folder, figs / "velocity.png", f"Velocity: {title}"))]
     steps = pd.read_csv(folder / STEPS_FILE, usecols=["compute_ms"])["compute_ms"].to_numpy(float)
     budget = summary.get("settings", {}).get("controller", {}).get("budget_ms")
     figures.append(("compute time per control step",

@@ -1,4 +1,4 @@
-"""Fixtures of the sweep and report tests: one small finished sweep of Case 1 A (sumo controller)."""
+"""Fixtures of the sweep and report tests: one small finished sweep of Case 1 A (SUMO's own controller, chosen by sweep_helpers.GRID)."""
 
 from __future__ import annotations
 

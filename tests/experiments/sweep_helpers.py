@@ -13,7 +13,8 @@ from intersection_cosim.results.layout import RUNS_DIR, TABLE_FILE
 from intersection_cosim.results.sweep_folder import WALL_CLOCK_COLUMNS
 
 CASE1A = str(Path(__file__).resolve().parents[2] / "scenarios" / "case1_A.toml")
-GRID = ["--kappa", "V1=0.3,0.7", "--kappa", "V2=0.2:0.5:0.3", "--seeds", "1"]  # 2 x 2 kappa, 1 seed
+# 2 x 2 kappa, 1 seed; SUMO's own controller (it ignores kappa, but it is fast and tests the machinery)
+GRID = ["--kappa", "V1=0.3,0.7", "--kappa", "V2=0.2:0.5:0.3", "--seeds", "1", "--controllers", "sumo"]
 GRID_RUNS = 4
 
 

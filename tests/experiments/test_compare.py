@@ -81,3 +81,11 @@ def test_compare_low_demand_and_rerun(tmp_path, capsys):
     assert main([*argv[:3], "30", *argv[4:]]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "overrides" in err
+
+
+def test_controller_is_accepted_as_the_old_spelling_of_controllers(tmp_path, capsys):
+    out = tmp_path / "cmp"
+    assert main(["compare", LOW, "--controller", "fcfs,nope", "--seeds", "1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "unknown controller 'nope'" in err
+    assert not out.exists()

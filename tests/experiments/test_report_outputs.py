@@ -60,7 +60,7 @@ def test_run_report(reference_sweep, tmp_path):
         assert _is_png(run / "figures" / name)
         assert f"(figures/{name})" in (run / "report.md").read_text()
     report = (run / "report.md").read_text()
-    assert "| V1 |" in report and "min_ttc" in report
+    assert "| V1 |" in report and "| min TTC, ours [s] |" in report
 
 
 def test_report_of_a_folder_that_is_neither_run_nor_sweep(tmp_path, capsys):

@@ -91,14 +91,14 @@ def test_sigkill_then_rerun_equals_uninterrupted(reference_sweep, tmp_path):
 
 def test_failed_run_is_recorded_and_does_not_stop_the_sweep(tmp_path, capsys):
     out = tmp_path / "sweep"
-    spec = make_spec(CASE1A, ["V1=0.3,0.7"], None, "1")
+    spec = make_spec(CASE1A, ["V1=0.3,0.7"], "sumo", "1")
     out.mkdir()
     (out / SPEC_FILE).write_text(json.dumps(spec.to_dict()))
     blocked = out / RUNS_DIR / "sumo-seed1-V1_0.30"  # a folder that is not a run: that run cannot write
     blocked.mkdir(parents=True)
     (blocked / "notes.txt").write_text("not a run")
-    args = ["sweep", CASE1A, "--kappa", "V1=0.3,0.7", "--seeds", "1", "--out", str(out), "--no-progress",
-            "--workers", "2"]
+    args = ["sweep", CASE1A, "--kappa", "V1=0.3,0.7", "--seeds", "1", "--controllers", "sumo", "--out", str(out),
+            "--no-progress", "--workers", "2"]
     assert main(args) == 1  # finished, with a failure
     captured = capsys.readouterr()
     assert "run sumo-seed1-V1_0.30 failed:" in captured.err and "not overwriting" in captured.err
@@ -116,7 +116,7 @@ def test_failed_run_is_recorded_and_does_not_stop_the_sweep(tmp_path, capsys):
 
 
 def test_a_crashed_run_process_fails_only_its_run(tmp_path):
-    spec = make_spec(CASE1A, ["V1=0.4"], None, "1")
+    spec = make_spec(CASE1A, ["V1=0.4"], "sumo", "1")
     (job,) = sweep_jobs(spec, tmp_path, spec.scenario_text)
     (tmp_path / RUNS_DIR).mkdir()
     result = {}
@@ -139,7 +139,7 @@ def test_a_crashed_run_process_fails_only_its_run(tmp_path):
 def test_ctrl_c_stops_cleanly_and_keeps_finished_runs(tmp_path):
     out = tmp_path / "sweep"
     cmd = [sys.executable, "-m", "intersection_cosim", "sweep", CASE1A, "--kappa", "V1=0.1:0.9:0.1", "--seeds", "1",
-           "--out", str(out), "--workers", "2"]
+           "--controllers", "sumo", "--out", str(out), "--workers", "2"]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         wait_for_a_finished_run(out, proc)

@@ -8,7 +8,7 @@ import pytest
 
 from intersection_cosim.cli import main
 from intersection_cosim.errors import InputError
-from intersection_cosim.experiments.sweep import make_spec, parse_kappa, parse_seeds, sweep_jobs
+from intersection_cosim.experiments.sweep import kappa_warning, make_spec, parse_kappa, parse_seeds, sweep_jobs
 from intersection_cosim.results.layout import SPEC_FILE
 from intersection_cosim.results.sweep_folder import SweepSpec, format_kappa
 
@@ -80,7 +80,9 @@ def test_malformed_kappa_is_one_line_exit_2_before_any_run(tmp_path, capsys, spe
     (["--seeds", "5-1"], "empty range"),
     (["--seeds", "1;2"], "bad syntax"),
     (["--seeds", "-1"], "bad syntax"),
-    (["--controller", "sumo,nope"], "unknown controller"),
+    (["--controller", "sumo,nope"], "unknown controller"),  # the old spelling
+    (["--controllers", "sumo,nope"], "unknown controller"),  # as compare spells it
+    (["--controllers", "sumo,sumo"], "given twice"),
 ])
 def test_other_malformed_specs(tmp_path, capsys, args, words):
     out = tmp_path / "sweep"
@@ -130,3 +132,34 @@ def test_unreachable_dask_scheduler_is_an_input_error(tmp_path, capsys, monkeypa
 def test_input_error_type():
     with pytest.raises(InputError):
         parse_kappa(["V1=2"], VIDS)
+
+
+def test_a_kappa_sweep_of_a_paper_scenario_plays_the_game_and_does_not_warn():
+    spec = make_spec(CASE1A, ["V2=0.1:0.9:0.2"], None, None)
+    assert spec.controllers == ("nash",) and sweep_jobs(spec, "/tmp/x")[0].run_id == "nash-seed42-V2_0.10"
+    assert kappa_warning(spec) is None
+
+
+@pytest.mark.parametrize("controllers, named", [
+    ("sumo", "sumo ignores kappa"),
+    ("nash,sumo-tls,fcfs", "sumo-tls, fcfs ignore kappa"),
+    ("sumo-priority,stackelberg", "sumo-priority ignores kappa"),
+])
+def test_kappa_warning_names_the_controllers_that_ignore_kappa(controllers, named):
+    warning = kappa_warning(make_spec(CASE1A, ["V1=0.3,0.7"], controllers, "1"))
+    assert warning is not None and "\n" not in warning and named in warning
+    assert "nash" not in warning.split("(")[0] and "stackelberg" not in warning.split("(")[0]
+    assert kappa_warning(make_spec(CASE1A, None, controllers, "1")) is None  # no --kappa: nothing to ignore
+    assert kappa_warning(make_spec(CASE1A, ["V1=0.3,0.7"], "nash,stackelberg", "1")) is None
+
+
+def test_a_kappa_sweep_with_sumo_warns_once_on_stderr(tmp_path, capsys):
+    """One SUMO run (about 2 s): the warning is one line, printed once, and the sweep still runs."""
+    out = tmp_path / "sweep"
+    argv = ["sweep", CASE1A, "--kappa", "V1=0.3", "--controllers", "sumo", "--seeds", "1", "--out", str(out),
+            "--no-progress", "--workers", "1"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert err.splitlines() == ["intersection-cosim: warning: sumo ignores kappa: its runs differ only by seed, "
+                                "whatever --kappa says (kappa is used by nash, stackelberg)"]
+    assert (out / "runs" / "sumo-seed1-V1_0.30" / "summary.json").is_file()

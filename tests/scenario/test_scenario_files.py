@@ -71,3 +71,14 @@ def test_the_game_controllers_tables_set_their_settings():
     assert settings.solver.nash_tol == 0.02 and settings.policy.lane_choice_period == 3
     assert settings.safety.safety_time_gap == 0.7 and settings.safety.safety_margin == default.safety.safety_margin
     assert settings.games.problem is settings.game and settings.games.solver is settings.solver
+
+
+@pytest.mark.parametrize("case", ["case1_A", "case1_B", "case1_C", "case1_D", "case2_A", "case2_B"])
+def test_paper_scenarios_run_the_game_unless_told_otherwise(case):
+    """`run scenarios/case1_A.toml` and a kappa sweep of it play the paper's game (kappa matters),
+    not SUMO's baseline (which ignores kappa)."""
+    from intersection_cosim.control.settings import GameControllerSettings
+
+    scn = load_scenario(SCENARIOS / f"{case}.toml")
+    assert scn.controller.kind == "nash"
+    assert scn.controller_settings == GameControllerSettings()  # no [controller.*] table: the defaults

@@ -9,9 +9,14 @@ import pytest
 from intersection_cosim.cli import main
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.results.sumo_outputs import read_tripinfo
-from intersection_cosim.scenario import load_scenario
+from intersection_cosim.scenario import load_scenario, with_overrides
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+
+
+def _sumo(case: str):
+    """A paper scenario under SUMO's own controller (the files default to the game, nash)."""
+    return with_overrides(load_scenario(SCENARIOS / f"{case}.toml"), controller="sumo")
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +91,7 @@ def test_pairs_are_the_two_cross_conflicts_with_ssm(case1a_run):
 
 def test_same_seed_same_trajectories(case1a_run, tmp_path):
     out = tmp_path / "again"
-    run_scenario(load_scenario(SCENARIOS / "case1_A.toml"), out)
+    run_scenario(_sumo("case1_A"), out)
     assert (out / "trajectories.csv").read_text() == (case1a_run / "trajectories.csv").read_text()
 
 
@@ -95,13 +100,13 @@ def test_crash_before_rename_leaves_nothing(tmp_path):
         raise RuntimeError("simulated crash")
 
     with pytest.raises(RuntimeError):
-        run_scenario(load_scenario(SCENARIOS / "case1_A.toml"), tmp_path / "run", fail_hook=boom)
+        run_scenario(_sumo("case1_A"), tmp_path / "run", fail_hook=boom)
     assert list(tmp_path.iterdir()) == []
 
 
 def test_case2_v4_starts_inside_the_junction(tmp_path):
     out = tmp_path / "case2"
-    run_scenario(load_scenario(SCENARIOS / "case2_A.toml"), out)
+    run_scenario(_sumo("case2_A"), out)
     traj = pd.read_csv(out / "trajectories.csv")
     v4 = traj[traj["vehicle"] == "V4"].sort_values("time").iloc[0]
     assert v4["role"] == "passing" and v4["lane"].startswith(":")

@@ -1,0 +1,57 @@
+"""`run` into an existing folder: a finished run is kept unless --force; a file or a foreign folder is refused."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from intersection_cosim.cli import main
+from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.run import prepare_output
+
+CASE1A = str(Path(__file__).resolve().parents[2] / "scenarios" / "case1_A.toml")
+
+
+def _run(out: Path, *extra: str) -> list[str]:
+    return ["run", CASE1A, "--controller", "sumo", "--seed", "3", "--out", str(out), *extra]
+
+
+def test_run_into_a_finished_run_is_refused_unless_force(tmp_path, capsys):
+    """Two SUMO runs of Case 1 A (about a second each)."""
+    out = tmp_path / "run"
+    assert main(_run(out)) == 0
+    summary = out / "summary.json"
+    before = summary.stat().st_mtime_ns
+    capsys.readouterr()
+
+    assert main(_run(out)) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("intersection-cosim: error: --out")
+    assert "holds a finished run" in err and "--force" in err
+    assert summary.stat().st_mtime_ns == before  # untouched
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no temporary folder left
+
+    assert main(_run(out, "--force")) == 0
+    assert summary.stat().st_mtime_ns > before
+    assert json.loads(summary.read_text())["seed"] == 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_prepare_output_refuses_a_file_and_a_foreign_folder(tmp_path):
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(InputError, match="is a file"):
+        prepare_output(tmp_path / "file", force=True)
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "a.txt").write_text("mine")
+    with pytest.raises(InputError, match="not a previous run's folder"):
+        prepare_output(tmp_path / "notes", force=True)
+    (tmp_path / "done").mkdir()
+    (tmp_path / "done" / "summary.json").write_text("{}")
+    with pytest.raises(InputError, match="--force"):
+        prepare_output(tmp_path / "done")
+    tmp = prepare_output(tmp_path / "done", force=True)
+    assert tmp.parent == tmp_path and tmp.name.startswith(".done.tmp-")
+    tmp.rmdir()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["done", "file", "notes"]

@@ -1,0 +1,147 @@
+"""The figures' content, drawn from fabricated runs and sweeps: what a reader is meant to see."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+import pytest  # noqa: E402
+
+from intersection_cosim.games.settings import SolverSettings  # noqa: E402
+from intersection_cosim.report import figures  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _close():
+    yield
+    plt.close("all")
+
+
+def _traj() -> pd.DataFrame:
+    """Three vehicles for 3 s at 0.1 s: V1 and V3 end on one exit lane, V2 crosses alone."""
+    rows = []
+    for k in range(31):
+        t = round(0.1 * k, 2)
+        role = "ready" if t < 1.0 else "passing" if t < 2.0 else "outside"
+        rows.append((t, "V1", -20 + 10 * t, -6.0, 10.0, role, "west_in_1" if t < 2 else "east_out_1"))
+        rows.append((t, "V2", 6.0, 20 - 5 * t, 5.0 - t, "ready" if t < 1.5 else "passing", "north_in_1"))
+        rows.append((t, "V3", -30 + 10 * t, -6.0, 8.0, role, "west_in_2" if t < 2 else "east_out_1"))
+    return pd.DataFrame(rows, columns=["time", "vehicle", "x", "y", "speed", "role", "lane"])
+
+
+VEHICLES = pd.DataFrame({"vehicle": ["V1", "V2", "V3"], "kappa": [0.5, 0.2, 0.8]})
+
+
+def test_trajectories_colour_by_time_and_spread_a_shared_lane():
+    fig, ax = plt.subplots()
+    drawn = figures.draw_trajectories(ax, _traj(), VEHICLES)
+    assert figures.shared_lane_offsets(_traj()) == {"V1": -0.7, "V2": 0.0, "V3": 0.7}
+    assert [len(drawn[v]) for v in ("V1", "V2", "V3")] == [7, 7, 7]  # every 0.5 s over 3 s
+    assert drawn["V1"]["time"].tolist() == pytest.approx([0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
+    # eastbound: left is north, so V1 (-0.7 m) is drawn south of the lane centre, V3 north, V2 on it
+    assert drawn["V1"]["y"].to_numpy() == pytest.approx(-6.7) and drawn["V3"]["y"].to_numpy() == pytest.approx(-5.3)
+    assert drawn["V2"]["x"].to_numpy() == pytest.approx(6.0)
+    scatters = [c for c in ax.collections if c.get_array() is not None and len(c.get_array())]
+    assert len(scatters) == 3 and scatters[0].get_array().tolist() == pytest.approx(drawn["V1"]["time"].tolist())
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ["V1 ($\\kappa$ = 0.50)", "V2 ($\\kappa$ = 0.20)", "V3 ($\\kappa$ = 0.80)", "start",
+                      "conflict zone"]
+    assert [t.get_text() for t in ax.texts] == ["V1", "V2", "V3"]  # the start squares are named
+    assert fig.axes[-1].get_ylabel() == "time [s]"  # the colour bar
+
+
+def test_zone_events_are_the_first_passing_and_the_first_outside_after_it():
+    events = figures.zone_events(_traj()).set_index("vehicle")
+    assert events.loc["V1", ["entry_time", "exit_time"]].tolist() == pytest.approx([1.0, 2.0])
+    assert events.loc["V2", "entry_time"] == pytest.approx(1.5) and np.isnan(events.loc["V2", "exit_time"])
+    assert events.loc["V2", "entry_speed"] == pytest.approx(3.5)
+
+
+def test_velocity_marks_entry_and_exit_of_the_conflict_zone():
+    fig, ax = plt.subplots()
+    figures.draw_velocity(ax, _traj(), VEHICLES)
+    marks = {line.get_gid(): (line.get_xdata()[0], line.get_ydata()[0]) for line in ax.lines if line.get_gid()}
+    assert marks == {"entry:V1": (1.0, 10.0), "exit:V1": (2.0, 10.0), "entry:V2": (1.5, 3.5),
+                     "entry:V3": (1.0, 8.0), "exit:V3": (2.0, 8.0)}
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels[-3:] == ["enters the conflict zone", "leaves the conflict zone", "inside the conflict zone"]
+    styles = [line.get_linestyle() for line in ax.lines if line.get_label().startswith("V")]
+    assert len(set(styles)) == 3  # one line style per vehicle, not colour alone
+
+
+def _convergence() -> pd.DataFrame:
+    rows = [(0.65, "V1", "V3", "nash", "converged", m + 1, r) for m, r in enumerate([1.5, 0.3, 0.05, 0.004])]
+    rows += [(0.75, "V1", "V3", "nash", "converged", 1, 0.002)]  # a shorter solve of the same pair
+    rows += [(2.45, "V1", "V2", "nash", "converged", m + 1, r) for m, r in enumerate([0.8, 0.0])]
+    return pd.DataFrame(rows, columns=["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"])
+
+
+def test_convergence_draws_the_tolerance_on_an_axis_that_shows_the_iterations():
+    fig, ax = plt.subplots()
+    tol = SolverSettings().nash_tol
+    drawn = figures.draw_convergence(ax, _convergence(), tol, guard=0.3, rtol=1e-3)
+    assert drawn["V1-V3"]["iteration"].tolist() == [1, 2, 3, 4]  # the longest solve of the pair
+    assert drawn["V1-V2"]["residual"].tolist() == [0.8, figures.RESIDUAL_FLOOR]  # 0 drawn at the floor
+    lines = {line.get_gid(): line for line in ax.lines if line.get_gid()}
+    assert list(lines["tolerance"].get_ydata()) == [tol, tol] and tol == 1e-2
+    assert list(lines["guard"].get_ydata()) == [0.3, 0.3]
+    assert ax.get_yscale() == "log"
+    lo, hi = ax.get_ylim()
+    assert figures.RESIDUAL_FLOOR / 2 < lo < figures.RESIDUAL_FLOOR and hi == pytest.approx(3.0)
+    assert ax.get_xlim() == (0.5, 4.5)
+    assert all(float(x).is_integer() for x in ax.get_xticks() if 0.5 <= x <= 4.5)
+    assert "max change of any player's plan" in ax.get_ylabel() and "[m/s$^2$]" in ax.get_ylabel()
+    assert "drawn at 0.0001" in ax.get_xlabel()
+
+
+def test_ecdf_reaches_one_and_states_median_and_mean():
+    fig, ax = plt.subplots()
+    drawn = figures.draw_ecdf(ax, {"ETM": np.array([3.0, 1.0, 2.0]), "no ETM": np.array([0.0, 4.0])},
+                              extra={"ETM": "1.00 QPs per step"})
+    assert drawn["ETM"].tolist() == [1.0, 2.0, 3.0]
+    assert ax.get_xscale() == "log"
+    assert ax.lines[0].get_ydata()[-1] == 1.0
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ["ETM: median 2.00 ms, mean 2.00 ms, 1.00 QPs per step", "no ETM: median 2.00 ms, mean 2.00 ms"]
+
+
+def _sweep_table() -> pd.DataFrame:
+    rows = []
+    for seed in (1, 2):
+        for k in (0.1, 0.3, 0.5, 0.7, 0.9):
+            rows.append({"run_id": f"nash-seed{seed}-V2_{k:.2f}", "controller": "nash", "seed": seed, "kappa_V2": k,
+                         "travel_time_V2": 12.0 - 2 * k + 0.1 * seed, "mean_travel_time": 11.0,
+                         "min_ttc_V1_V2": 2.5 - k, "min_ttc_V2_V3": 2.4 - k, "min_ttc_V1_V3": 0.1,
+                         "min_ttc_ssm_V1_V2": 0.01, "pet_V1_V2": 1.3 - k, "pet_V1_V3": 0.05,
+                         "min_ttc": 0.1, "min_pet": 0.05, "collisions": 0, "status": "ok"})
+    return pd.DataFrame(rows)
+
+
+def test_kappa_tradeoff_has_one_labelled_point_per_kappa_value():
+    fig, axes = plt.subplots(1, 2)
+    points = figures.draw_kappa_tradeoff(axes, _sweep_table(), "V2")
+    assert points["kappa"].tolist() == [0.1, 0.3, 0.5, 0.7, 0.9]
+    assert points["travel_time"].tolist() == pytest.approx([12.15 - 2 * k for k in (0.1, 0.3, 0.5, 0.7, 0.9)])
+    # V2's own conflicts only (not V1-V3's 0.1 s, not SSM's TTC)
+    assert points["min_ttc"].tolist() == pytest.approx([2.4 - k for k in (0.1, 0.3, 0.5, 0.7, 0.9)])
+    assert points["min_pet"].tolist() == pytest.approx([1.3 - k for k in (0.1, 0.3, 0.5, 0.7, 0.9)])
+    for ax in axes:
+        labels = [t.get_text() for t in ax.texts if t.get_gid() == "kappa-label"]
+        assert labels == [f"$\\kappa$ {k:g}" for k in (0.1, 0.3, 0.5, 0.7, 0.9)]
+        assert ax.get_xlabel() == "travel time of V2 [s]"
+    assert axes[0].get_ylabel() == "min TTC of V2's conflicts, ours [s]"
+    assert axes[1].get_ylabel() == "min PET of V2's conflicts, SUMO SSM [s]"
+
+
+def test_a_constant_zero_metric_gets_an_axis_from_zero_with_the_count_shown():
+    fig, ax = plt.subplots()
+    table = _sweep_table()[lambda d: d["kappa_V2"].isin([0.1, 0.9])]
+    figures.draw_kappa_lines(ax, table, "collisions", "kappa_V2")
+    lo, hi = ax.get_ylim()
+    assert lo < 0 < hi == 1.0 and lo > -0.1
+    assert "0 in every run (4 runs)" in [t.get_text() for t in ax.texts]
+    assert list(ax.get_xticks()) == [0.1, 0.9]
+    assert ax.lines[0].get_markersize() == 8  # two points: large markers

@@ -1,0 +1,90 @@
+"""scripts/reproduce_paper.py: when a run folder may be reused, and a bad --out."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "scripts" / "reproduce_paper.py"
+
+
+@pytest.fixture(scope="module")
+def rp():
+    spec = importlib.util.spec_from_file_location("reproduce_paper", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+VERSIONS = {"intersection_cosim": "1.2.3", "sumo": "1.20.0", "python": "3.11.9"}
+
+
+def _folder(tmp_path: Path, settings: dict, versions: dict) -> Path:
+    run = tmp_path / "case1_A-nash-etm"
+    run.mkdir()
+    (run / "summary.json").write_text(json.dumps({"settings": settings, "versions": versions, "counts": {}}))
+    return run
+
+
+def test_a_run_with_the_same_settings_and_versions_is_reused(rp, tmp_path):
+    settings = rp.run_settings("case1_A", "nash", True, 2000.0)
+    assert settings["controller"]["budget_ms"] == 2000.0 and settings["controller"]["kind"] == "nash"
+    assert settings["controller"]["etm"] is True and settings["controller_settings"]["solver"]["nash_tol"] == 1e-2
+    run = _folder(tmp_path, settings, VERSIONS)
+    assert rp.rerun_reason(run, settings, VERSIONS) is None
+    assert rp.rerun_reason(run, settings, {**VERSIONS, "python": "3.12.1"}) is None  # only the package and SUMO
+
+
+def test_a_2000_ms_folder_is_rerun_for_a_100_ms_report(rp, tmp_path):
+    run = _folder(tmp_path, rp.run_settings("case1_A", "nash", True, 2000.0), VERSIONS)
+    reason = rp.rerun_reason(run, rp.run_settings("case1_A", "nash", True, 100.0), VERSIONS)
+    assert reason == "settings differ: controller.budget_ms 2000.0 -> 100.0"
+
+
+def test_other_trigger_model_or_versions_are_rerun(rp, tmp_path):
+    settings = rp.run_settings("case1_A", "nash", True, 2000.0)
+    run = _folder(tmp_path, settings, VERSIONS)
+    assert rp.rerun_reason(run, rp.run_settings("case1_A", "nash", False, 2000.0), VERSIONS) == \
+        "settings differ: controller.etm True -> False"
+    assert rp.rerun_reason(run, rp.run_settings("case1_B", "nash", True, 2000.0), VERSIONS).startswith(
+        "settings differ: scenario.name case1_A -> case1_B")
+    assert rp.rerun_reason(run, settings, {**VERSIONS, "intersection_cosim": "1.2.4"}) == \
+        "made by intersection_cosim 1.2.3, this is 1.2.4"
+    old = json.loads((run / "summary.json").read_text())
+    del old["settings"]["model"]["k_lat"]  # a folder of a version before the field existed
+    (run / "summary.json").write_text(json.dumps(old))
+    assert "model.k_lat (none) -> 5.0" in rp.rerun_reason(run, settings, VERSIONS)
+    (run / "summary.json").write_text("{not json")
+    assert rp.rerun_reason(run, settings, VERSIONS) == "unreadable summary.json"
+    assert rp.rerun_reason(tmp_path / "absent", settings, VERSIONS) == "no finished run"
+
+
+@pytest.mark.parametrize("where", ["file", "under a file"])
+def test_bad_out_is_one_line_exit_2_and_writes_nothing(tmp_path, where):
+    target = tmp_path / "notes.txt"
+    target.write_text("mine")
+    out = target if where == "file" else target / "report"
+    proc = subprocess.run([sys.executable, str(SCRIPT), "--out", str(out)], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("reproduce_paper: --out: out = ")
+    assert str(out) in proc.stderr and "is a file" in proc.stderr and "Traceback" not in proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"] and target.read_text() == "mine"
+
+
+def test_the_convergence_figure_reads_the_tolerance_from_the_run_else_the_defaults(rp, tmp_path):
+    from intersection_cosim.games.settings import SolverSettings
+
+    runs = rp.Runs(tmp_path)
+    assert rp.stopping_rule(runs, "case1_A", "nash") == {"tol": SolverSettings().nash_tol, "guard": 0.3, "rtol": 1e-3}
+    run = runs.dir("case1_A", "stackelberg")
+    run.mkdir(parents=True)
+    recorded = {"controller_settings": {"solver": {"stackelberg_tol": 0.005, "nash_cost_guard": 0.2}}}
+    (run / "summary.json").write_text(json.dumps({"settings": recorded}))
+    assert rp.stopping_rule(runs, "case1_A", "stackelberg") == {"tol": 0.005, "guard": 0.2, "rtol": 1e-3}

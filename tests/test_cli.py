@@ -1,0 +1,43 @@
+"""The command line's help: what a user sees first."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from intersection_cosim.cli import main
+from intersection_cosim.control import registry
+
+COMMANDS = ("net", "run", "sweep", "compare", "report")
+
+
+def _help(capsys, *argv: str) -> str:
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--help"])
+    assert exc.value.code == 0
+    return capsys.readouterr().out
+
+
+def test_top_level_help_lists_every_command_with_one_example(capsys):
+    text = _help(capsys)
+    assert "``" not in text and "thin" not in text  # not the module's developer docstring
+    assert "Hang et al." in text
+    examples = text[text.index("examples:"):]
+    for command in COMMANDS:
+        assert re.search(rf"^ +{command} +\S", text, re.M), command  # listed with its one-line help
+        assert len(re.findall(rf"^  intersection-cosim {command} ", examples, re.M)) == 1, command
+
+
+def test_run_help_lists_the_registry_controllers(capsys):
+    text = _help(capsys, "run")
+    listed = text[text.index("controllers ("):]
+    for name in registry.names():
+        line = next(ln for ln in listed.splitlines() if ln.split()[:1] == [name])
+        assert registry.get(name).description in line
+    assert "--force" in text
+
+
+def test_sweep_help_spells_controllers_as_compare(capsys):
+    assert "--controllers K1,K2" in _help(capsys, "sweep")
+    assert "--controllers K1,K2" in _help(capsys, "compare")
