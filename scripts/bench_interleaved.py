@@ -156,15 +156,15 @@ def summarize(cmp: dict) -> dict:
 
 def table(cmp: dict, summary: dict) -> str:
     """Human-readable table: one line per timing figure [ms]."""
-    lines = [f"{'figure':44s} {'old':>8s} {'new':>8s} {'new/old':>8s} {'noise min':>9s} {'noise max':>9s}"
+    lines = [f"{'figure':48s} {'old':>8s} {'new':>8s} {'new/old':>8s} {'noise min':>9s} {'noise max':>9s}"
              f"  qp identical   [ms]"]
     for cfg, e in cmp.items():
         for name, v in e.items():
             if isinstance(v, dict):
-                lines.append(f"{cfg + '/' + name:44s} {v['old_ms']:8.3f} {v['new_ms']:8.3f} "
+                lines.append(f"{cfg + '/' + name:48s} {v['old_ms']:8.3f} {v['new_ms']:8.3f} "
                              f"{v['ratio']:8.3f} {v['noise_min']:9.3f} {v['noise_max']:9.3f}  {e['qp_identical']}")
         if "qp_old" not in e:
-            lines.append(f"{cfg:44s} missing in one tree")
+            lines.append(f"{cfg:48s} missing in one tree")
     d = summary["largest_deviation"]
     lines.append(f"median ratio new/old over {summary['timing_figures']} timing figures: {summary['median_ratio']}"
                  f" (min {summary['min_ratio']}, max {summary['max_ratio']})")
