@@ -22,7 +22,7 @@ potential-field risk, event trigger, Nash and Stackelberg equilibria)."""
 EXAMPLES = """\
 examples:
   intersection-cosim run scenarios/case1_A.toml --out runs/case1_A
-      play the paper's Case 1 A (Nash game unless --controller says otherwise)
+      play the paper's Case 1 A (Nash game unless --controller says otherwise; --gui: live in sumo-gui)
   intersection-cosim sweep scenarios/case1_A.toml --kappa V2=0.1:0.9:0.2 --out sweeps/V2
       one run per kappa value of V2 (add --controllers nash,stackelberg,sumo to compare)
   intersection-cosim compare scenarios/demand_balanced_low.toml --seeds 1-3 --out compare/low
@@ -31,8 +31,6 @@ examples:
       figures and report.md of a run or sweep folder (a kappa sweep: kappa_tradeoff_<V>.png)
   intersection-cosim animate runs/case1_A
       a GIF of the run drawn from its outputs (runs/case1_A/animation.gif)
-  intersection-cosim run scenarios/case1_A.toml --gui
-      the same run live in sumo-gui, vehicles coloured by kappa, games marked
   intersection-cosim net --junction-type allway_stop --out nets/allway
       build the intersection net with netconvert
 
