@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from intersection_cosim.control.anytime import AnytimeSchedule, step_cutoff
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
@@ -69,8 +70,7 @@ class ConvergenceRecord:
     costs: tuple[float, ...]  # [-] final cost of each player
 
 
-@dataclass(frozen=True)
-class Choice:
+class Choice(NamedTuple):
     """One game's (or solo problem's) answer for one vehicle."""
 
     first_accel: float  # [m/s^2] the plan's first acceleration
@@ -183,9 +183,7 @@ class GameController:
         return release
 
     def _relations(self, world: World, active: set[int]) -> Relations:
-        default = {world.ids[k]: self.paths[world.path_ids[k]].exit_lane for k in range(len(world))}
-        held = {vid: self.memory.held_option(vid, exit_lane) for vid, exit_lane in default.items()}
-        return step_relations(world, active, self.paths, self.table, self.model, self.ctx.etm, held,
+        return step_relations(world, active, self.paths, self.table, self.model, self.ctx.etm, self.memory.options,
                               self.settings.policy.lane_choice_range)
 
     def _play_games(self, world: World, relations: Relations, options, cutoff: float,

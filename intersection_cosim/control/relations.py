@@ -37,8 +37,7 @@ class Rows:
         return len(self.option)
 
 
-@dataclass(frozen=True)
-class Leader:
+class Leader(NamedTuple):
     """The nearest vehicle ahead of a row on a shared stretch (same approach lane, or a
     confluence after the merge)."""
 

@@ -36,8 +36,7 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import numpy as np
 
@@ -100,8 +99,7 @@ def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float) -> 
     return -bt + math.sqrt(max(bt * bt + v_leader * v_leader + 2.0 * decel * max(gap, 0.0), 0.0))
 
 
-@dataclass(frozen=True)
-class _Crossing:
+class _Crossing(NamedTuple):
     """One vehicle of a guarded lateral pair, as the filter ranks it."""
 
     rank: tuple
