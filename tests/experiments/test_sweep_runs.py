@@ -138,8 +138,10 @@ def test_a_crashed_run_process_fails_only_its_run(tmp_path):
 
 def test_ctrl_c_stops_cleanly_and_keeps_finished_runs(tmp_path):
     out = tmp_path / "sweep"
-    cmd = [sys.executable, "-m", "intersection_cosim", "sweep", CASE1A, "--kappa", "V1=0.1:0.9:0.1", "--seeds", "1",
-           "--controllers", "sumo", "--out", str(out), "--workers", "2"]
+    # 17 game runs of about a second each: the sweep is still running when Ctrl-C comes (with 9
+    # runs of SUMO's fast baseline it could finish first)
+    cmd = [sys.executable, "-m", "intersection_cosim", "sweep", CASE1A, "--kappa", "V1=0.1:0.9:0.05", "--seeds", "1",
+           "--controllers", "nash", "--out", str(out), "--workers", "2"]
     proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         wait_for_a_finished_run(out, proc)
@@ -155,7 +157,7 @@ def test_ctrl_c_stops_cleanly_and_keeps_finished_runs(tmp_path):
     assert "Traceback" not in err
     assert group_alive(proc.pid) == []
     finished = sorted(p.parent.name for p in out.glob(f"{RUNS_DIR}/*/summary.json"))
-    assert 1 <= len(finished) < 9
+    assert 1 <= len(finished) < 17
     table = read_table(out)
     assert sorted(table["run_id"]) == finished and (table["status"] == "ok").all()
     assert not [p for p in (out / RUNS_DIR).iterdir() if p.name.startswith(".")]  # interrupted runs cleaned up
