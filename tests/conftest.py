@@ -27,3 +27,11 @@ def conflict_table(net_file):
     from intersection_cosim.network.conflicts import load_conflict_table
 
     return load_conflict_table(net_file)
+
+
+@pytest.fixture(scope="session")
+def movements(net_file):
+    """The default net's Movements (its centre junction's paths, exits, siblings and lane roles)."""
+    from intersection_cosim.network.movements import paper_movements
+
+    return paper_movements(net_file)

@@ -8,11 +8,12 @@ the simulator.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Mapping, Protocol
 
 import numpy as np
 
 from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.movements import Movements
 from intersection_cosim.network.paths import MovementPath
 
 
@@ -59,12 +60,20 @@ class Decisions:
 class ControlContext:
     """What a controller gets once, before the first step."""
 
-    paths: dict[str, MovementPath]
-    net_file: str  # the SUMO net the run uses (for the precomputed conflict table)
+    movements: Movements  # the managed junctions' movement paths and how they relate
     model: ModelSettings
     control_period: float  # [s]
     settings: object  # the controller's validated [controller.*] settings (None: its defaults)
     etm: bool  # event-triggered mechanism on
+
+    @property
+    def paths(self) -> Mapping[str, MovementPath]:
+        return self.movements.paths
+
+    @property
+    def net_file(self) -> str:
+        """The SUMO net the run uses (for the precomputed conflict table)."""
+        return self.movements.net_file
 
 
 @dataclass(frozen=True)

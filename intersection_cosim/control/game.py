@@ -113,10 +113,10 @@ class GameController:
         self.table = load_conflict_table(context.net_file, context.model.vehicle_width, context.model.vehicle_length)
         shift = max(1, int(round(context.control_period / game.dt)))
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt)
-        lane_costs = LaneChangeCosts(context.net_file, context.paths, context.model)
+        lane_costs = LaneChangeCosts(context.movements, context.model)
         self.solver = GameSolver(EQUILIBRIA[self.equilibrium], self.equilibrium, self.settings.games, self.model,
-                                 lane_costs, context.paths)
-        self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.paths)
+                                 lane_costs, context.movements)
+        self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.movements)
         self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
                                    context.control_period)
         self.schedule = AnytimeSchedule()
@@ -151,7 +151,7 @@ class GameController:
             return decisions
         self.memory.prune_warm({world.ids[k] for k in active})
         relations = self._relations(world, set(active))
-        lanes = lane_options(world, relations, self.paths, self.memory.options, self._choice_age,
+        lanes = lane_options(world, relations, self.ctx.movements, self.memory.options, self._choice_age,
                              self.settings.policy.lane_choice_period)
         self._choice_age = dict(lanes.choice_age)
         cutoff = step_cutoff(deadline, self.settings.policy.anytime_reserve)
@@ -183,7 +183,7 @@ class GameController:
         return release
 
     def _relations(self, world: World, active: set[int]) -> Relations:
-        return step_relations(world, active, self.paths, self.table, self.model, self.ctx.etm, self.memory.options,
+        return step_relations(world, active, self.ctx.movements, self.table, self.model, self.ctx.etm, self.memory.options,
                               self.settings.policy.lane_choice_range)
 
     def _play_games(self, world: World, relations: Relations, options, cutoff: float,

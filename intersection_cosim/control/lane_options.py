@@ -17,11 +17,10 @@ from typing import Mapping
 import sumolib
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.relations import Relations, option_path
+from intersection_cosim.control.relations import Relations
 from intersection_cosim.games.lane_choice import lane_change_cost
 from intersection_cosim.models.settings import ModelSettings
-from intersection_cosim.network.paths import MovementPath
-from intersection_cosim.network.spec import LANE_USE
+from intersection_cosim.network.movements import Movements
 
 
 @dataclass(frozen=True)
@@ -32,12 +31,7 @@ class LaneOptions:
     choice_age: Mapping[str, int]  # vehicle id -> control steps since its exit lane was decided
 
 
-def preferred_exit(path: MovementPath) -> str:
-    """The movement's default exit lane (the first of the lane-use table)."""
-    return LANE_USE[path.lane][path.movement][0]
-
-
-def lane_options(world: World, relations: Relations, paths: Mapping[str, MovementPath],
+def lane_options(world: World, relations: Relations, movements: Movements,
                  previous: Mapping[str, str], choice_age: Mapping[str, int],
                  lane_choice_period: int) -> LaneOptions:
     """Per vehicle, the exit lanes whose choice changes whom it interacts with (module docstring).
@@ -52,7 +46,7 @@ def lane_options(world: World, relations: Relations, paths: Mapping[str, Movemen
         vid = world.ids[k]
         last = previous.get(vid)
         if len(opts) > 1 and len(set(by_option.values())) == 1:
-            opts = (last if last in by_option else preferred_exit(paths[world.path_ids[k]]),)
+            opts = (last if last in by_option else movements.preferred(world.path_ids[k]),)
         elif len(opts) > 1:
             age = ages.get(vid)
             if age is not None and age + 1 < lane_choice_period and last in by_option:
@@ -84,29 +78,30 @@ class LaneChangeCosts:
     preferred exit lane, measured on the net's exit edge (the widths of the lanes between the
     two centre lines, read with sumolib)."""
 
-    def __init__(self, net_file: str, paths: Mapping[str, MovementPath], model: ModelSettings):
-        net = sumolib.net.readNet(str(net_file))
+    def __init__(self, movements: Movements, model: ModelSettings):
+        net = sumolib.net.readNet(str(movements.net_file))
         self._lane = {}  # exit lane id -> (edge id, lane index)
         self._widths = {}  # exit edge id -> [m] width of each of its lanes, by index
-        for path in paths.values():
+        for path in movements.paths.values():
             lane = net.getLane(path.lanes[-1])
             edge = lane.getEdge()
             self._lane[lane.getID()] = (edge.getID(), lane.getIndex())
             self._widths[edge.getID()] = [ln.getWidth() for ln in edge.getLanes()]
-        self._paths = paths
+        self._movements = movements
         self._model = model
 
-    def offset(self, path: MovementPath, option: str) -> float:
-        """[m] lateral distance between the centre lines of ``path``'s preferred exit lane and
-        of exit lane ``option``."""
-        edge, ia = self._lane[self._paths[option_path(path.id, preferred_exit(path))].lanes[-1]]
-        _, ib = self._lane[self._paths[option_path(path.id, option)].lanes[-1]]
+    def offset(self, path_id: str, option: str) -> float:
+        """[m] lateral distance between the centre lines of the preferred exit lane of
+        ``path_id``'s movement and of exit lane ``option``."""
+        m = self._movements
+        edge, ia = self._lane[m.paths[m.sibling(path_id, m.preferred(path_id))].lanes[-1]]
+        _, ib = self._lane[m.paths[m.sibling(path_id, option)].lanes[-1]]
         lo, hi = sorted((ia, ib))
         if lo == hi:
             return 0.0
         widths = self._widths[edge][lo:hi + 1]
         return (widths[0] + widths[-1]) / 2.0 + sum(widths[1:-1])
 
-    def costs(self, path: MovementPath, options: tuple[str, ...]) -> dict[str, float]:
+    def costs(self, path_id: str, options: tuple[str, ...]) -> dict[str, float]:
         """J_lk of each of ``options``."""
-        return {o: lane_change_cost(self.offset(path, o), self._model) for o in options}
+        return {o: lane_change_cost(self.offset(path_id, o), self._model) for o in options}

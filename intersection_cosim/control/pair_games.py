@@ -28,7 +28,7 @@ from intersection_cosim.games.problem import GameResult, Interaction, Problem
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
-from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.network.movements import Movements
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +51,7 @@ class GameSolver:
     settings: GameSettings
     model: ModelSettings
     lane_costs: LaneChangeCosts
-    paths: Mapping[str, MovementPath]
+    movements: Movements
 
 
 def pair_games(relations: Relations, options: Mapping[int, tuple[str, ...]]) -> dict[tuple[int, int], PairGame]:
@@ -125,7 +125,7 @@ def play(world: World, game: PairGame, options: Mapping[int, tuple[str, ...]], r
         result = solver.equilibrium(problem, gs, model, warm_start=warm.get(combo), deadline=deadline)
         choice, results = combo, {combo: result}
     else:
-        costs = [solver.lane_costs.costs(solver.paths[world.path_ids[k]], options[k]) for k in (ka, kb)]
+        costs = [solver.lane_costs.costs(world.path_ids[k], options[k]) for k in (ka, kb)]
         lc = lane_choice_game(problems, costs, solver=solver.equilibrium, settings=gs, model_settings=model,
                               warm_starts=warm, deadline=deadline)
         result, choice, results = lc.result, lc.choice, lc.results

@@ -20,8 +20,7 @@ from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflicts import (KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, ConflictTable,
                                                   point_zone)
-from intersection_cosim.network.path_id import PathId
-from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.network.movements import Movements
 
 
 @dataclass(frozen=True)
@@ -81,16 +80,12 @@ class Relations:
         return self.leaders.get(self.row_of[(k, option)])
 
 
-def option_path(path_id: str, exit_lane: str) -> str:
-    """The id of the path from the same approach lane with the same movement to ``exit_lane``."""
-    return str(PathId.parse(path_id).with_exit(exit_lane))
-
-
-def build_rows(world: World, active: set[int], paths: Mapping[str, MovementPath], table: ConflictTable,
+def build_rows(world: World, active: set[int], movements: Movements, table: ConflictTable,
                held: Mapping[str, str], lane_choice_range: float) -> Rows:
     """One row per exit lane a vehicle may still take; a vehicle farther than
     ``lane_choice_range`` [m] from its stop line has one row, the exit lane it holds (``held``:
     vehicle id -> exit lane chosen at the last step)."""
+    paths = movements.paths
     vehicle, option, path = [], [], []
     for k in range(len(world)):
         pid = world.path_ids[k]
@@ -102,7 +97,7 @@ def build_rows(world: World, active: set[int], paths: Mapping[str, MovementPath]
             for o in opts:
                 vehicle.append(k)
                 option.append(o)
-                path.append(option_path(pid, o))
+                path.append(movements.sibling(pid, o))
         else:
             vehicle.append(k)
             option.append(paths[pid].exit_lane)
@@ -110,11 +105,11 @@ def build_rows(world: World, active: set[int], paths: Mapping[str, MovementPath]
     return Rows(np.asarray(vehicle, dtype=np.intp), tuple(option), tuple(path), table.indices(path))
 
 
-def step_relations(world: World, active: set[int], paths: Mapping[str, MovementPath], table: ConflictTable,
+def step_relations(world: World, active: set[int], movements: Movements, table: ConflictTable,
                    model: ModelSettings, etm: bool, held: Mapping[str, str],
                    lane_choice_range: float) -> Relations:
     """The step's rows, leaders and lateral pairs (ETM on or off)."""
-    rows = build_rows(world, active, paths, table, held, lane_choice_range)
+    rows = build_rows(world, active, movements, table, held, lane_choice_range)
     leaders, lateral = _pair_relations(world, rows, active, table, model, etm)
     row_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
     return Relations(rows, leaders, tuple(lateral), row_of)

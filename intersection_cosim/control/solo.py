@@ -14,7 +14,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-from typing import Mapping, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,7 +30,7 @@ from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.models.settings import ModelSettings
-from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.network.movements import Movements
 
 log = logging.getLogger(__name__)
 
@@ -53,9 +53,9 @@ class SoloPlanner:
     """Solo best responses of one controller, with what each vehicle's last solve answered."""
 
     def __init__(self, settings: GameControllerSettings, model: ModelSettings, memory: PlanMemory,
-                 lane_costs: LaneChangeCosts, paths: Mapping[str, MovementPath]):
+                 lane_costs: LaneChangeCosts, movements: Movements):
         self.settings, self.policy, self.model, self.memory = settings, settings.policy, model, memory
-        self.lane_costs, self.paths = lane_costs, paths
+        self.lane_costs, self.paths = lane_costs, movements.paths
         # a solo vehicle's SQP stops after solo_max_iter steps and goes on at the next period
         self.solo_gs = GameSettings(settings.game, dataclasses.replace(settings.solver,
                                                                        nash_max_iter=settings.policy.solo_max_iter))
@@ -105,8 +105,7 @@ class SoloPlanner:
             (combo, problem), = problems.items()
             result = nash_equilibrium(problem, self.solo_gs, self.model, warm_start=warm.get(combo))
             return result, combo, {combo: result}
-        path = self.paths[world.path_ids[k]]
-        costs = self.lane_costs.costs(path, tuple(o for (o,) in problems))
+        costs = self.lane_costs.costs(world.path_ids[k], tuple(o for (o,) in problems))
         lc = lane_choice_game(problems, [costs], solver=nash_equilibrium, settings=self.solo_gs,
                               model_settings=self.model, warm_starts=warm)
         return lc.result, lc.choice, lc.results

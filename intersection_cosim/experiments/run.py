@@ -17,7 +17,7 @@ import platform
 import shutil
 import tempfile
 from pathlib import Path
-from typing import NamedTuple
+from typing import Mapping, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -32,7 +32,8 @@ from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import load_conflicts
 from intersection_cosim.network.path_id import PathId
-from intersection_cosim.network.paths import MovementPath, load_paths
+from intersection_cosim.network.movements import Movements, paper_movements
+from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import IntersectionSpec
 from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE,
@@ -134,8 +135,12 @@ class _Inputs(NamedTuple):
 
     controller: Controller
     net: Path  # the cached net file (copied into the run's folder)
-    paths: dict[str, MovementPath]  # movement paths of the net, by path id
+    movements: Movements  # the managed junctions' movement paths
     flow_vehicles: list[dict]  # the vehicles drawn from the scenario's flows
+
+    @property
+    def paths(self) -> Mapping[str, MovementPath]:
+        return self.movements.paths
 
 
 class _Records(NamedTuple):
@@ -186,12 +191,12 @@ def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     controller = registry.create(scn.controller.kind, scn.controller_settings, s.junction_type)
     net = cached_net(IntersectionSpec(junction_type=controller.junction_type))
     shutil.copyfile(net, folder / NET_FILE)
-    paths = load_paths(net)
+    movements = paper_movements(net)
     rng = np.random.default_rng(s.seed)
     flow_vehicles = generate_flow_vehicles(scn, rng)
-    write_routes(folder / ROUTE_FILE, scn, paths, flow_vehicles)
+    write_routes(folder / ROUTE_FILE, scn, movements.paths, flow_vehicles)
     write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn)
-    return _Inputs(controller, net, paths, flow_vehicles)
+    return _Inputs(controller, net, movements, flow_vehicles)
 
 
 def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -> dict[str, dict]:
@@ -233,13 +238,13 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     specs = _vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
     infos = {vid: VehicleInfo(**spec) for vid, spec in specs.items()}
     period_steps = _period_steps(scn)
-    controller.setup(ControlContext(paths=inputs.paths, net_file=str(inputs.net), model=scn.model,
+    controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
                                     etm=scn.controller.etm))
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
     observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
-    sim = SumoSimulation(paths=inputs.paths, vehicles=infos, step_length=s.step_length,
+    sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,
                          exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO)
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on

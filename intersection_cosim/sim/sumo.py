@@ -19,14 +19,14 @@ import math
 import subprocess
 from dataclasses import dataclass, field
 from types import ModuleType
+from typing import Mapping
 
 import libsumo
 import numpy as np
 
 from intersection_cosim.control.base import Decisions, World
-from intersection_cosim.network.path_id import PathId
+from intersection_cosim.network.movements import PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
-from intersection_cosim.network.spec import LANE_NAME, LANE_USE
 
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
          libsumo.VAR_LANE_ID, libsumo.VAR_LANEPOSITION)
@@ -91,7 +91,7 @@ class VehicleInfo:
 class SumoSimulation:
     """One running SUMO instance, driven step by step."""
 
-    paths: dict[str, MovementPath]
+    movements: Movements  # the managed junctions' movement paths
     vehicles: dict[str, VehicleInfo]
     step_length: float  # [s]
     exit_distance: float = 50.0  # [m] past the junction where vehicles arrive (the routes' arrivalPos)
@@ -105,6 +105,10 @@ class SumoSimulation:
     commands: dict[str, float] = field(default_factory=dict)  # [m/s^2] held accel per vehicle
     switched: set[str] = field(default_factory=set)  # vehicles moved onto another connection
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
+
+    @property
+    def paths(self) -> Mapping[str, MovementPath]:
+        return self.movements.paths
 
     def start(self, sumocfg: str, extra: list[str] | None = None) -> None:
         for pid, p in self.paths.items():
@@ -163,14 +167,14 @@ class SumoSimulation:
         info = self.vehicles.get(vid)
         if info is None:
             return
-        if lane.startswith(":"):
+        if self.movements.role(lane) == PASSING:
             pid = self._lane_to_paths[lane][0]
             if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane:
                 self._switch_exit_lane(vid, lane, pid, info)
                 return
             self.current_path[vid] = pid
-        elif "_out_" in lane and vid not in self.exit_lane_taken:  # SUMO lane id "<arm>_out_<index>"
-            self.exit_lane_taken[vid] = LANE_NAME[int(lane.rsplit("_", 1)[1])]
+        elif vid not in self.exit_lane_taken and lane == self.paths[self.current_path[vid]].lanes[-1]:
+            self.exit_lane_taken[vid] = self.paths[self.current_path[vid]].exit_lane
 
     def _switch_exit_lane(self, vid: str, lane: str, pid: str, info: VehicleInfo) -> None:
         """Put a vehicle that entered the junction on the internal lane of its chosen connection.
@@ -178,8 +182,8 @@ class SumoSimulation:
         The internal lanes of one approach lane's connections start at the same point, so the
         move changes only which connection the vehicle follows (a SUMO-documented use of moveTo).
         """
-        target_id = str(PathId(info.approach, info.lane, info.movement, info.exit_lane))
-        if target_id not in self.paths:
+        target_id = self.movements.siblings.get((pid, info.exit_lane))
+        if target_id is None:
             return
         old, target = self.paths[pid], self.paths[target_id]
         s = old.lane_starts[old.lanes.index(lane)] + self.api.vehicle.getLanePosition(vid)
@@ -203,7 +207,8 @@ class SumoSimulation:
             if st is None:
                 self.switched.discard(vid)
                 continue
-            if "_out_" in st[libsumo.VAR_LANE_ID] and st[libsumo.VAR_LANEPOSITION] >= self.exit_distance:
+            on_exit = st[libsumo.VAR_LANE_ID] == self.paths[self.current_path[vid]].lanes[-1]
+            if on_exit and st[libsumo.VAR_LANEPOSITION] >= self.exit_distance:
                 self.api.vehicle.unsubscribe(vid)  # a removed vehicle's subscription fails the next step
                 self.api.vehicle.remove(vid, libsumo.REMOVE_ARRIVED)
                 self.arrived[vid] = self.time
@@ -244,11 +249,12 @@ class SumoSimulation:
             arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
             path_ids.append(pid)
             lanes.append(lane)
-            if info is not None and "_in_" in lane and not info.exit_fixed:
-                exit_choices[vid] = LANE_USE[info.lane][info.movement]
+            role = self.movements.role(lane)
+            if info is not None and role == READY and not info.exit_fixed:
+                exit_choices[vid] = self.movements.options(pid)
             else:
                 exit_choices[vid] = (path.exit_lane,)
-            roles.append("passing" if lane.startswith(":") else ("ready" if "_in_" in lane else "outside"))
+            roles.append(role)
         return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
                      lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"])

@@ -2,6 +2,7 @@
 
 import pytest
 
+from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext
 from intersection_cosim.control.game import GameController
 from intersection_cosim.models.settings import ModelSettings
@@ -11,7 +12,7 @@ from intersection_cosim.models.settings import ModelSettings
 def controller(paths, net_file):
     """A Nash game controller set up on the default net (ETM on, 0.1 s period)."""
     c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
+    c.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
                            settings=None, etm=True))
     return c
 

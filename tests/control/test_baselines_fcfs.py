@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control import registry
+from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext, World
 from intersection_cosim.control.fcfs import FcfsController, FcfsSettings, free_slot, time_to_cover
 from intersection_cosim.errors import InputError
@@ -118,7 +119,7 @@ def _world(paths, t, vehicles):
 
 def test_fcfs_grants_do_not_overlap_and_the_later_vehicle_waits(net_file, paths):
     ctrl = FcfsController()
-    ctrl.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(),
+    ctrl.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(),
                               control_period=0.1, settings=None, etm=True))
     # northbound and eastbound straight through at 10 m/s, placed so that both would reach their
     # crossing point at about the same time (B 0.5 m further: A comes first); C follows A
@@ -149,7 +150,7 @@ def test_fcfs_grants_do_not_overlap_and_the_later_vehicle_waits(net_file, paths)
 
 def test_fcfs_releases_vehicles_that_left(net_file, paths):
     ctrl = FcfsController()
-    ctrl.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(),
+    ctrl.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(),
                               control_period=0.1, settings=None, etm=True))
     pid = "south_middle_straight_middle"
     ctrl.decide(_world(paths, 0.0, [("A", pid, 5.0, 8.0)]), float("inf"))

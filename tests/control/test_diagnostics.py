@@ -7,6 +7,7 @@ import dataclasses
 import pytest
 
 from intersection_cosim.control import registry
+from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext, Diagnostics
 from intersection_cosim.models.settings import ModelSettings
 
@@ -27,7 +28,7 @@ def test_controllers_without_games_or_filter_report_nothing(kind):
 @pytest.mark.parametrize("kind", ["nash", "stackelberg"])
 def test_a_fresh_game_controller_reports_zero_counts_and_no_records(kind, paths, net_file):
     ctrl = registry.create(kind, None, "priority")
-    ctrl.setup(ControlContext(paths=paths, net_file=str(net_file), model=ModelSettings(), control_period=0.1,
+    ctrl.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
                               settings=None, etm=True))
     assert ctrl.diagnostics() == Diagnostics(convergence=(), safety_interventions=0, box_rule_clearances=0)
 

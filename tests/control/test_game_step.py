@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control import solo as solo_module
+from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext, World
 from intersection_cosim.control.game import GameController
 from intersection_cosim.control.plan_memory import GameKey, PlanMemory
@@ -38,7 +39,7 @@ def _nash_controller(paths, net_file, model: ModelSettings | None = None,
     """A Nash controller on the default net (ETM on, 0.1 s period), like the ``controller``
     fixture but with the given model and controller settings."""
     c = GameController("nash")
-    c.setup(ControlContext(paths=paths, net_file=str(net_file), model=model or ModelSettings(),
+    c.setup(ControlContext(movements=paper_movements(net_file), model=model or ModelSettings(),
                            control_period=0.1, settings=settings, etm=True))
     return c
 
@@ -195,7 +196,8 @@ def test_a_leader_on_a_parting_path_stops_counting_past_the_shared_stretch(contr
     s_lead = end - 2.0
     for follower_path, parted in ((middle, True), (inner, False)):
         world = _world(paths, 0.0, [("LEAD", inner, s_lead, 4.0), ("F", follower_path, s_lead - 8.0, 8.0)])
-        relations = step_relations(world, {0, 1}, paths, controller.table, controller.model, True, {}, 30.0)
+        relations = step_relations(world, {0, 1}, controller.ctx.movements, controller.table, controller.model, True, {},
+                                   30.0)
         lead = relations.leader_of(1, world.exit_choices["F"][0])
         assert lead.vehicle == 0
         s_pred, _v = leader_trajectory(world, lead, PlanMemory(1, 0.1, 30, 0.1))  # no plans: coasting

@@ -4,7 +4,7 @@ import dataclasses
 
 import pytest
 
-from intersection_cosim.control.relations import option_path, step_relations
+from intersection_cosim.control.relations import step_relations
 from intersection_cosim.models.settings import ModelSettings
 from tests.control.conftest import make_world
 
@@ -21,10 +21,10 @@ def _crossing_world(paths, t, before_l=16.0, before_s=17.0):
                                    ("S", STRAIGHT, t.s_a[q, p] - before_s, 8.0)])
 
 
-def test_a_risky_crossing_plays_with_the_trigger_and_without_it(paths, conflict_table):
+def test_a_risky_crossing_plays_with_the_trigger_and_without_it(paths, movements, conflict_table):
     t = conflict_table
     world = _crossing_world(paths, t)
-    rel = step_relations(world, {0, 1}, paths, t, MODEL, True, {}, RANGE)
+    rel = step_relations(world, {0, 1}, movements, t, MODEL, True, {}, RANGE)
     (lat,) = rel.lateral
     p, q = t.index[LEFT], t.index[STRAIGHT]
     assert lat.kind == "cross" and lat.live and lat.play
@@ -32,42 +32,42 @@ def test_a_risky_crossing_plays_with_the_trigger_and_without_it(paths, conflict_
     assert lat.zone_i == pytest.approx((t.zone_in[p, q], t.zone_out[p, q]))
     assert rel.triggered_pairs() == {(0, 1)} and rel.leaders == {}
     calm = dataclasses.replace(MODEL, gamma_sf=1e12)  # the trigger never fires
-    (lat,) = step_relations(world, {0, 1}, paths, t, calm, True, {}, RANGE).lateral
+    (lat,) = step_relations(world, {0, 1}, movements, t, calm, True, {}, RANGE).lateral
     assert lat.live and not lat.play
-    (lat,) = step_relations(world, {0, 1}, paths, t, calm, False, {}, RANGE).lateral  # ETM off
+    (lat,) = step_relations(world, {0, 1}, movements, t, calm, False, {}, RANGE).lateral  # ETM off
     assert lat.play
 
 
-def test_a_crossing_is_live_until_clearance_and_guarded_until_the_zone_is_left(paths, conflict_table):
+def test_a_crossing_is_live_until_clearance_and_guarded_until_the_zone_is_left(paths, movements, conflict_table):
     t = conflict_table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     past = MODEL.conflict_clearance + 0.5  # [m] past the point: no game any more
     if t.zone_out[p, q] - t.s_a[p, q] > past:
-        (lat,) = step_relations(_crossing_world(paths, t, -past), {0, 1}, paths, t, MODEL, True, {}, RANGE).lateral
+        (lat,) = step_relations(_crossing_world(paths, t, -past), {0, 1}, movements, t, MODEL, True, {}, RANGE).lateral
         assert not lat.live and not lat.play
     gone = -(t.zone_out[p, q] - t.s_a[p, q]) - 0.1  # front past the zone: cleared
-    assert step_relations(_crossing_world(paths, t, gone), {0, 1}, paths, t, MODEL, True, {}, RANGE).lateral == ()
+    assert step_relations(_crossing_world(paths, t, gone), {0, 1}, movements, t, MODEL, True, {}, RANGE).lateral == ()
 
 
-def test_a_follower_on_the_same_lane_gets_its_nearest_leader(paths, conflict_table):
+def test_a_follower_on_the_same_lane_gets_its_nearest_leader(paths, movements, conflict_table):
     s_stop = paths[LANE].s_stop
     world = make_world(paths, 0.0, [("far", LANE, s_stop - 20.0, 8.0), ("near", LANE, s_stop - 45.0, 8.0),
                                     ("follow", LANE, s_stop - 60.0, 8.0)])
-    rel = step_relations(world, {0, 1, 2}, paths, conflict_table, MODEL, True, {}, RANGE)
+    rel = step_relations(world, {0, 1, 2}, movements, conflict_table, MODEL, True, {}, RANGE)
     lead = rel.leader_of(2, paths[LANE].exit_lane)
     assert lead.vehicle == 1 and lead.gap == pytest.approx(15.0) and lead.offset == pytest.approx(0.0)
     assert rel.leader_of(1, paths[LANE].exit_lane).vehicle == 0
     assert rel.leader_of(0, paths[LANE].exit_lane) is None and rel.lateral == ()
 
 
-def test_a_vehicle_chooses_among_exit_lanes_only_near_its_stop_line(paths, conflict_table):
+def test_a_vehicle_chooses_among_exit_lanes_only_near_its_stop_line(paths, movements, conflict_table):
     pid = "north_inner_left_inner"
     s_stop = paths[pid].s_stop
     for before, held, expected in ((RANGE - 1.0, {}, ("inner", "middle")), (RANGE + 1.0, {"V": "middle"}, ("middle",)),
                                    (RANGE + 1.0, {}, ("inner",))):
         world = make_world(paths, 0.0, [("V", pid, s_stop - before, 8.0)])
         world.exit_choices["V"] = ("inner", "middle")
-        rel = step_relations(world, {0}, paths, conflict_table, MODEL, True, held, RANGE)
+        rel = step_relations(world, {0}, movements, conflict_table, MODEL, True, held, RANGE)
         assert rel.rows.option == expected
-        assert rel.rows.path == tuple(option_path(pid, o) for o in expected)
+        assert rel.rows.path == tuple(movements.sibling(pid, o) for o in expected)
         assert [rel.row_of[(0, o)] for o in expected] == list(range(len(expected)))

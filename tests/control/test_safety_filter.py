@@ -26,11 +26,11 @@ def _deepest_crossing(t):
     return int(p), int(q)
 
 
-def _relations(world, paths, table):
-    return step_relations(world, set(range(len(world))), paths, table, MODEL, True, {}, RANGE)
+def _relations(world, movements, table):
+    return step_relations(world, set(range(len(world))), movements, table, MODEL, True, {}, RANGE)
 
 
-def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, conflict_table):
+def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, movements, conflict_table):
     """Both hold 8 m/s and reach their crossing about together: the one ranked lower (the later
     by time to the zone) cannot stop at its stop line any more and stops 1 m (safety_margin)
     before its zone; the other keeps its plan."""
@@ -42,7 +42,7 @@ def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, co
     plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
     f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
     d = Decisions(accel={"L": 0.0, "S": 0.0})
-    held = f.apply(world, _relations(world, paths, t), plans, {}, d)
+    held = f.apply(world, _relations(world, movements, t), plans, {}, d)
     assert d.accel["L"] == 0.0
     to_line = float(t.s_stop[q]) - GS.safety_margin - s_s  # [m] 4.25 m: would need -7.5 m/s^2
     assert -8.0 ** 2 / (2 * to_line) < PROBLEM.a_min
@@ -51,7 +51,7 @@ def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, co
     assert held == {"S"} and f.filtered == 1 and f.cleared == 0
 
 
-def test_the_entry_queue_and_the_box_rule(paths, conflict_table):
+def test_the_entry_queue_and_the_box_rule(paths, movements, conflict_table):
     """B entered the junction first and stands inside the crossing; its own plan waits. A,
     ranked lower (it entered later), yields before its zone; then B must clear the crossing:
     its acceleration is raised to clear_accel (1 m/s^2), or A and B would wait for each other."""
@@ -72,7 +72,7 @@ def test_the_entry_queue_and_the_box_rule(paths, conflict_table):
     plans = {"A": Plan.from_accelerations(s_a, 2.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
              "B": Plan.from_accelerations(s_b, 0.0, np.zeros(PROBLEM.steps), PROBLEM.dt)}
     d = Decisions(accel={"A": 1.0, "B": 0.0})
-    f.apply(world, _relations(world, paths, t), plans, {}, d)
+    f.apply(world, _relations(world, movements, t), plans, {}, d)
     assert d.accel["A"] < 0.0  # A yields before its zone
     assert d.accel["B"] == pytest.approx(GS.clear_accel)
     assert f.cleared == 1 and f.filtered == 1
@@ -80,7 +80,7 @@ def test_the_entry_queue_and_the_box_rule(paths, conflict_table):
     assert f.entered == {"B": 1.0}
 
 
-def test_a_follower_is_capped_at_krauss_safe_speed(paths, conflict_table):
+def test_a_follower_is_capped_at_krauss_safe_speed(paths, movements, conflict_table):
     """A follower 10 m (front to front) behind a standing leader at 8 m/s: its acceleration is
     capped so that its speed next period is v_safe of the 10 - 4.5 - 1 m gap."""
     lane = "south_middle_straight_middle"
@@ -90,7 +90,7 @@ def test_a_follower_is_capped_at_krauss_safe_speed(paths, conflict_table):
     plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(PROBLEM.steps), PROBLEM.dt)
              for k, v in enumerate(world.ids)}
     d = Decisions(accel={"lead": 0.0, "follow": 0.0})
-    held = f.apply(world, _relations(world, paths, conflict_table), plans, {}, d)
+    held = f.apply(world, _relations(world, movements, conflict_table), plans, {}, d)
     b, tau = -PROBLEM.a_min, 0.1
     gap = 10.0 - MODEL.vehicle_length - GS.safety_margin  # [m]
     v_safe = -b * tau + np.sqrt((b * tau) ** 2 + 2 * b * gap)
