@@ -46,14 +46,18 @@ class MovementPath:
     xy: np.ndarray = field(repr=False)  # [m] centre-line points at s, shape (n, 2)
     heading: np.ndarray = field(repr=False)  # [rad] heading at s, counter-clockwise from east
     curvature: np.ndarray = field(repr=False)  # [1/m] signed curvature at s (left turn > 0)
+    stop_index: int = 1  # index in ``lanes`` of the first junction-internal lane (the lanes before
+    #                      it are the approach: the approach lane and, on any net, its upstream lanes)
+    junction: str = ""  # the id of the junction the path passes
 
     @property
     def approach_lane(self) -> str:
-        return self.lanes[0]
+        """The lane that ends at the stop line."""
+        return self.lanes[self.stop_index - 1]
 
     @property
     def junction_lanes(self) -> tuple[str, ...]:
-        return self.lanes[1:-1]
+        return self.lanes[self.stop_index:-1]
 
     def point_at(self, s: float | np.ndarray) -> np.ndarray:
         """[m] (x, y) at arc length ``s`` (clipped to the path)."""

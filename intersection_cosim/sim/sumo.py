@@ -25,7 +25,7 @@ import libsumo
 import numpy as np
 
 from intersection_cosim.control.base import Decisions, World
-from intersection_cosim.network.movements import PASSING, READY, Movements
+from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
@@ -33,6 +33,9 @@ _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libs
 
 SPEED_MODE_CONTROLLED = 0  # every SUMO check off: no safe speed, no right of way, no accel limits
 LANE_CHANGE_MODE_CONTROLLED = 0  # SUMO makes no lane change of its own
+# On any net: strategic lane changes only (to reach the lanes of its route), respecting others'
+# gaps; a vehicle inserted on the wrong lane of a multi-lane approach could not turn otherwise
+LANE_CHANGE_MODE_STRATEGIC = 0b1000000001
 SPEED_MODE_SUMO = 31  # SUMO's default: every safety check on (for vehicles released from control)
 
 
@@ -79,12 +82,14 @@ class VehicleInfo:
     lane: str  # approach lane name
     movement: str
     kappa: float
-    intended_path: str  # path id used until the vehicle is in the junction
+    intended_path: str | None  # path id used until the vehicle is in the junction (None: resolved from
+    #                            its lane and route when it reaches a managed approach, on any net)
     controlled: bool
     exit_lane: str | None = None  # exit lane to enforce at the junction entry (None: SUMO's)
     exit_fixed: bool = False  # the scenario fixes the exit lane: the controller may not choose
     start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
     desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
+    route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)
 
 
 @dataclass
@@ -104,7 +109,11 @@ class SumoSimulation:
     arrived: dict[str, float] = field(default_factory=dict)
     commands: dict[str, float] = field(default_factory=dict)  # [m/s^2] held accel per vehicle
     switched: set[str] = field(default_factory=set)  # vehicles moved onto another connection
+    lane_change_mode: int = LANE_CHANGE_MODE_CONTROLLED  # of a controlled vehicle
+    adopt_controlled: bool = True  # vehicles of the user's own route file are controlled
+    taken: set[str] = field(default_factory=set)  # vehicles whose speed the controller commands
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
+    _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
 
     @property
     def paths(self) -> Mapping[str, MovementPath]:
@@ -114,6 +123,8 @@ class SumoSimulation:
         for pid, p in self.paths.items():
             for lane in p.lanes[1:]:
                 self._lane_to_paths.setdefault(lane, []).append(pid)
+            for lane in p.lanes[:p.stop_index]:
+                self._approach_paths.setdefault(lane, []).append(pid)
         self.backend.start(["-c", sumocfg, "--no-step-log", "true", *(extra or [])])
 
     @property
@@ -129,15 +140,13 @@ class SumoSimulation:
         for vid in self.api.simulation.getDepartedIDList():
             self.departed[vid] = self.time - self.step_length
             self.api.vehicle.subscribe(vid, _VARS)
-            info = self.vehicles.get(vid)
-            if info is None:
-                continue
-            self.current_path[vid] = info.intended_path
+            info = self.vehicles.get(vid) or self._adopt(vid)
             if info.desired_speed is not None:
                 self.api.vehicle.setMaxSpeed(vid, info.desired_speed)
-            if info.controlled:
-                self.api.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)
-                self.api.vehicle.setLaneChangeMode(vid, LANE_CHANGE_MODE_CONTROLLED)
+            if info.intended_path is None:
+                continue  # it is taken over when it reaches a managed approach
+            self.current_path[vid] = info.intended_path
+            self._take_over(vid, info)
             if info.start_s is not None:
                 lane, pos = self.paths[info.intended_path].lane_at(info.start_s)
                 self.api.vehicle.moveTo(vid, lane, pos)
@@ -161,20 +170,63 @@ class SumoSimulation:
     def _track_path(self, vid: str, lane: str) -> None:
         """Resolve the vehicle's movement path from its lane and enforce its exit lane.
 
-        On the approach lane the path is the intended one; a junction-internal lane belongs to
-        exactly one connection, so it fixes the path; on the exit lane the path stays as fixed.
+        On the approach the path is the intended one (a vehicle without one: the path of its lane
+        and route, see :meth:`_approach_path`); a junction-internal lane belongs to exactly one
+        connection, so it fixes the path; on the exit lane the path stays as fixed; past it the
+        vehicle has none (it is out of the World until it reaches the next managed approach).
         """
         info = self.vehicles.get(vid)
         if info is None:
             return
-        if self.movements.role(lane) == PASSING:
+        role = self.movements.role(lane)
+        if role == PASSING:
             pid = self._lane_to_paths[lane][0]
             if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane:
                 self._switch_exit_lane(vid, lane, pid, info)
                 return
             self.current_path[vid] = pid
-        elif vid not in self.exit_lane_taken and lane == self.paths[self.current_path[vid]].lanes[-1]:
-            self.exit_lane_taken[vid] = self.paths[self.current_path[vid]].exit_lane
+            return
+        if role == READY and info.intended_path is None:
+            pid = self._approach_path(lane, info)
+            if pid is not None:
+                self.current_path[vid] = pid
+                self._take_over(vid, info)
+                return
+        current = self.current_path.get(vid)
+        if current is None:
+            return
+        if lane == self.paths[current].lanes[-1]:
+            if vid not in self.exit_lane_taken:
+                self.exit_lane_taken[vid] = self.paths[current].exit_lane
+        elif lane not in self.paths[current].lanes:
+            del self.current_path[vid]  # left the managed junction's paths
+
+    def _approach_path(self, lane: str, info: VehicleInfo) -> str | None:
+        """The path of a vehicle on approach lane ``lane`` whose route leaves by the path's exit
+        edge: its chosen exit lane if it has one there, else the movement's preferred one."""
+        for pid in self._approach_paths.get(lane, ()):
+            if self.paths[pid].exit_arm in info.route:
+                if info.exit_lane is not None:
+                    return self.movements.siblings.get((pid, info.exit_lane), pid)
+                return self.movements.sibling(pid, self.movements.preferred(pid))
+        return None
+
+    def _take_over(self, vid: str, info: VehicleInfo) -> None:
+        """The controller commands ``vid`` from now on (a controlled vehicle, not yet taken)."""
+        if info.controlled and vid not in self.taken:
+            self.api.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)
+            self.api.vehicle.setLaneChangeMode(vid, self.lane_change_mode)
+            self.taken.add(vid)
+
+    def _adopt(self, vid: str) -> VehicleInfo:
+        """A vehicle of the user's own route file: kappa from its ``kappa`` parameter (else 0.5),
+        its route from SUMO, controlled like the scenario's vehicles."""
+        veh = self.api.vehicle
+        kappa = veh.getParameter(vid, "kappa") or veh.getParameter(vid, "device.kappa") or "0.5"
+        info = VehicleInfo("", "", "", float(kappa), None, self.adopt_controlled,
+                           route=frozenset(veh.getRoute(vid)))
+        self.vehicles[vid] = info
+        return info
 
     def _switch_exit_lane(self, vid: str, lane: str, pid: str, info: VehicleInfo) -> None:
         """Put a vehicle that entered the junction on the internal lane of its chosen connection.
@@ -227,7 +279,7 @@ class SumoSimulation:
 
     def world(self) -> World:
         """A snapshot of every vehicle in the network, in the paper's frame."""
-        ids = sorted(self.states)
+        ids = sorted(vid for vid in self.states if vid in self.current_path)
         n = len(ids)
         s = np.empty(n)
         arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
@@ -272,6 +324,8 @@ class SumoSimulation:
             if self.commands.pop(vid, None) is not None and vid in self.states:
                 self.api.vehicle.setSpeed(vid, -1)  # SUMO's own driver model takes over again
                 self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
+            if self.vehicles.get(vid) is not None and self.vehicles[vid].intended_path is None:
+                self.taken.discard(vid)  # on any net it may be taken over at the next managed junction
 
     def write(self) -> None:
         """Write this SUMO step's speed commands: v + a * step for every commanded vehicle.
@@ -282,6 +336,18 @@ class SumoSimulation:
         for vid, accel in self.commands.items():
             v = self.states[vid][libsumo.VAR_SPEED]
             self.api.vehicle.setSpeed(vid, max(0.0, v + accel * self.step_length))
+
+    def switch_signals_off(self) -> list[str]:
+        """Switch off every traffic light that controls a link into a managed junction (its
+        state becomes O / o: no signal, so SUMO's own vehicles follow the junction's priority
+        rules); returns the programmes' ids."""
+        off = []
+        for tls in self.api.trafficlight.getIDList():
+            links = self.api.trafficlight.getControlledLinks(tls)
+            if any(link and self.movements.role(link[0][0]) != OUTSIDE for link in links):
+                self.api.trafficlight.setProgram(tls, "off")
+                off.append(tls)
+        return off
 
     def collisions(self) -> list[tuple[str, str]]:
         return [(c.collider, c.victim) for c in self.api.simulation.getCollisions()]
