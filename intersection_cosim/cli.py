@@ -31,8 +31,8 @@ examples:
       figures and report.md of a run or sweep folder (a kappa sweep: kappa_tradeoff_<V>.png)
   intersection-cosim animate runs/case1_A
       a GIF of the run drawn from its outputs (runs/case1_A/animation.gif)
-  intersection-cosim net --junction-type allway_stop --out nets/allway
-      build the intersection net with netconvert
+  intersection-cosim net --arms 3 --lanes 2 --out nets/t_junction
+      build a net with netconvert: here a T-junction, two lanes a road (default: the paper's cross)
 
 'intersection-cosim COMMAND --help' describes a command's options."""
 
@@ -94,6 +94,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     net = sub.add_parser("net", help="generate the intersection net with netconvert")
+    net.add_argument("--arms", type=int, choices=(3, 4), default=4,
+                     help="4 (default): the paper's cross; 3: a T-junction without the north arm "
+                     "(south is the stem, east-west the through road)")
+    net.add_argument("--lanes", type=int, choices=(1, 2, 3), default=3,
+                     help="lanes on each road in and out (default 3, the paper's)")
     net.add_argument("--out", default="sumo_networks", help="output folder (default: sumo_networks)")
     net.add_argument("--junction-type", default="priority",
                      help="priority (default), allway_stop, traffic_light or right_before_left")
@@ -164,7 +169,8 @@ def _cmd_net(args) -> int:
     from intersection_cosim.network.spec import IntersectionSpec
 
     net = build_network(args.out, IntersectionSpec(junction_type=args.junction_type,
-                                                   approach_length=args.approach_length))
+                                                   approach_length=args.approach_length,
+                                                   arms=args.arms, lanes_per_road=args.lanes))
     print(net)
     return 0
 

@@ -16,13 +16,11 @@ import sumolib
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.network.spec import (
+    ARM_COUNTS,
     ARM_DIRECTION,
-    ARMS,
     JUNCTION_TYPES,
-    LANE_INDEX,
-    LANE_USE,
+    LANE_COUNTS,
     IntersectionSpec,
-    exit_arm,
 )
 
 NET_FILE = "intersection.net.xml"
@@ -35,30 +33,36 @@ def _write_xml(root: ET.Element, path: Path) -> None:
 
 
 def plain_xml(spec: IntersectionSpec) -> dict[str, ET.Element]:
-    """The three plain-XML documents that describe the intersection."""
+    """The three plain-XML documents that describe the intersection.
+
+    Only the arms of ``spec.arms_present()`` are written, and from each approach lane exactly the
+    connections of ``spec.lane_use(approach)`` (so netconvert guesses none).
+    """
+    arms = spec.arms_present()
+    lane_index = spec.lane_index()
     nodes = ET.Element("nodes")
     ET.SubElement(nodes, "node", id="C", x="0.00", y="0.00", type=spec.junction_type,
                   radius="0.00")
-    for arm in ARMS:
+    for arm in arms:
         dx, dy = ARM_DIRECTION[arm]
         ET.SubElement(nodes, "node", id=arm, x=f"{dx * spec.approach_length:.2f}",
                       y=f"{dy * spec.approach_length:.2f}", type="dead_end")
 
     edges = ET.Element("edges")
-    for arm in ARMS:
+    for arm in arms:
         for direction, (src, dst) in (("in", (arm, "C")), ("out", ("C", arm))):
             ET.SubElement(edges, "edge", id=f"{arm}_{direction}", attrib={"from": src, "to": dst},
                           numLanes=str(spec.lanes_per_road), speed=f"{spec.speed_limit:.2f}",
                           width=f"{spec.lane_width:.2f}", priority="1")
 
     connections = ET.Element("connections")
-    for arm in ARMS:
-        for lane, moves in LANE_USE.items():
+    for arm in arms:
+        for lane, moves in spec.lane_use(arm).items():
             for movement, exit_lanes in moves.items():
                 for exit_lane in exit_lanes:
                     ET.SubElement(connections, "connection", attrib={
-                        "from": f"{arm}_in", "to": f"{exit_arm(arm, movement)}_out",
-                        "fromLane": str(LANE_INDEX[lane]), "toLane": str(LANE_INDEX[exit_lane])})
+                        "from": f"{arm}_in", "to": f"{spec.exit_arm(arm, movement)}_out",
+                        "fromLane": str(lane_index[lane]), "toLane": str(lane_index[exit_lane])})
     return {"intersection.nod.xml": nodes, "intersection.edg.xml": edges,
             "intersection.con.xml": connections}
 
@@ -92,6 +96,11 @@ def build_network(out_dir: str | Path, spec: IntersectionSpec | None = None) -> 
     netconvert succeeds, so a failure leaves nothing half-written.
     """
     spec = spec or IntersectionSpec()
+    if spec.arms not in ARM_COUNTS:
+        raise InputError("--arms", "arms", spec.arms, f"must be one of {', '.join(map(str, ARM_COUNTS))}")
+    if spec.lanes_per_road not in LANE_COUNTS:
+        raise InputError("--lanes", "lanes_per_road", spec.lanes_per_road,
+                         f"must be one of {', '.join(map(str, LANE_COUNTS))}")
     if spec.junction_type not in JUNCTION_TYPES:
         raise InputError("--junction-type", "junction_type", spec.junction_type,
                          f"must be one of {', '.join(JUNCTION_TYPES)}")
