@@ -12,7 +12,7 @@ from pathlib import Path
 
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_INDEX, exit_arm
-from intersection_cosim.scenario.model import Scenario
+from intersection_cosim.scenario.model import Scenario, VehicleSpec
 
 ROUTE_FILE = "scenario.rou.xml"
 SUMOCFG_FILE = "scenario.sumocfg"
@@ -36,37 +36,73 @@ def _write(root: ET.Element, path: Path) -> None:
 
 
 def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow_vehicles: list[dict]) -> None:
-    """vType ``av`` plus one ``<vehicle>`` per hand-placed and flow-generated vehicle, by depart."""
+    """vType ``av`` plus one ``<vehicle>`` per hand-placed and flow-generated vehicle, by depart.
+
+    Vehicles of the paper forms are placed on ``paths`` (the generated net's movement paths);
+    those with a ``route`` (a ``[network] file`` net) carry their edges, lane and position.
+    A ``[network] routes`` file is not copied: :func:`route_files` lists it beside this one.
+    """
     m = scn.model
     root = ET.Element("routes")
     ET.SubElement(root, "vType", id="av", length=f"{m.vehicle_length:g}", width=f"{m.vehicle_width:g}",
                   minGap="2.0", accel="2.6", decel="4.5", emergencyDecel="9.0", sigma="0",
                   maxSpeed=f"{m.v_max:g}", speedFactor="1", tau="1.0")
-    entries = []
-    for v in scn.vehicles:
-        p = paths[v.path_id]
-        approach_len = p.lane_starts[1]
-        pos = min(v.s0, approach_len - 0.1)
-        attrs = {"id": v.id, "type": "av", "depart": f"{v.depart:g}",
-                 "departLane": str(LANE_INDEX[v.lane]), "departPos": f"{pos:.2f}",
-                 "departSpeed": f"{v.speed:g}", "arrivalPos": f"{scn.scenario.exit_distance:g}",
-                 "insertionChecks": "none"}
-        if v.exit_lane is not None:
-            attrs["arrivalLane"] = str(LANE_INDEX[v.exit_lane])
-        entries.append((v.depart, v.id, attrs, f"{p.approach}_in {p.exit_arm}_out"))
-    for fv in flow_vehicles:
-        approach_len = next(p for p in paths.values() if p.approach == fv["approach"]).lane_starts[1]
-        pos = 0.0 if fv["distance"] is None else max(0.0, approach_len - fv["distance"])
-        attrs = {"id": fv["id"], "type": "av", "depart": f"{fv['depart']:.2f}",
-                 "departLane": str(LANE_INDEX[fv["lane"]]), "departPos": f"{pos:.2f}",
-                 "departSpeed": "max", "arrivalPos": f"{scn.scenario.exit_distance:g}"}
-        entries.append((fv["depart"], fv["id"], attrs,
-                        f"{fv['approach']}_in {exit_arm(fv['approach'], fv['movement'])}_out"))
+    entries = [_placed_entry(v) if v.route is not None else _paper_placed_entry(scn, v, paths)
+               for v in scn.vehicles]
+    entries += [_flow_entry(fv) if fv.get("route") is not None else _paper_flow_entry(scn, fv, paths)
+                for fv in flow_vehicles]
     entries.sort(key=lambda e: (e[0], e[1]))
     for _, _, attrs, edges in entries:
         el = ET.SubElement(root, "vehicle", attrs)
         ET.SubElement(el, "route", edges=edges)
     _write(root, path)
+
+
+RouteEntry = tuple[float, str, dict[str, str], str]  # depart [s], id, <vehicle> attributes, route edges
+
+
+def _paper_placed_entry(scn: Scenario, v: VehicleSpec, paths: dict[str, MovementPath]) -> RouteEntry:
+    p = paths[v.path_id]
+    approach_len = p.lane_starts[1]  # [m]
+    pos = min(v.s0, approach_len - 0.1)  # [m]
+    attrs = {"id": v.id, "type": "av", "depart": f"{v.depart:g}",
+             "departLane": str(LANE_INDEX[v.lane]), "departPos": f"{pos:.2f}",
+             "departSpeed": f"{v.speed:g}", "arrivalPos": f"{scn.scenario.exit_distance:g}",
+             "insertionChecks": "none"}
+    if v.exit_lane is not None:
+        attrs["arrivalLane"] = str(LANE_INDEX[v.exit_lane])
+    return v.depart, v.id, attrs, f"{p.approach}_in {p.exit_arm}_out"
+
+
+def _paper_flow_entry(scn: Scenario, fv: dict, paths: dict[str, MovementPath]) -> RouteEntry:
+    approach_len = next(p for p in paths.values() if p.approach == fv["approach"]).lane_starts[1]  # [m]
+    pos = 0.0 if fv["distance"] is None else max(0.0, approach_len - fv["distance"])  # [m]
+    attrs = {"id": fv["id"], "type": "av", "depart": f"{fv['depart']:.2f}",
+             "departLane": str(LANE_INDEX[fv["lane"]]), "departPos": f"{pos:.2f}",
+             "departSpeed": "max", "arrivalPos": f"{scn.scenario.exit_distance:g}"}
+    return fv["depart"], fv["id"], attrs, f"{fv['approach']}_in {exit_arm(fv['approach'], fv['movement'])}_out"
+
+
+def _placed_entry(v: VehicleSpec) -> RouteEntry:
+    """A hand-placed vehicle on a ``[network] file`` net: where it is put, as given (no insertion checks)."""
+    attrs = {"id": v.id, "type": "av", "depart": f"{v.depart:g}", "departLane": str(v.depart_lane),
+             "departPos": f"{v.depart_pos:.2f}", "departSpeed": f"{v.speed:g}", "insertionChecks": "none"}
+    return v.depart, v.id, attrs, " ".join(v.route)
+
+
+def _flow_entry(fv: dict) -> RouteEntry:
+    """A flow vehicle on a ``[network] file`` net: SUMO inserts it at the start of its route's first
+    edge ("base") unless the flow gives a position."""
+    pos = "base" if fv["depart_pos"] is None else f"{fv['depart_pos']:.2f}"
+    attrs = {"id": fv["id"], "type": "av", "depart": f"{fv['depart']:.2f}", "departLane": fv["depart_lane"],
+             "departPos": pos, "departSpeed": fv["speed"]}
+    return fv["depart"], fv["id"], attrs, " ".join(fv["route"])
+
+
+def route_files(scn: Scenario) -> list[str]:
+    """The route files SUMO loads for a run of ``scn``: the run's own (ROUTE_FILE, relative to the
+    run folder), then the user's ``[network] routes`` file (absolute), if any."""
+    return [ROUTE_FILE] + ([scn.network.routes] if scn.network.routes is not None else [])
 
 
 def run_output_options(folder: Path) -> list[str]:
@@ -95,7 +131,7 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
     s = scn.scenario
     root = ET.Element("configuration")
     sections = {
-        "input": {"net-file": net_file, "route-files": ROUTE_FILE},
+        "input": {"net-file": net_file, "route-files": ",".join(route_files(scn))},
         "time": {"begin": "0", "end": f"{s.duration + s.drain:g}", "step-length": f"{s.step_length:g}"},
         "processing": {"collision.check-junctions": "true", "collision.action": "warn",
                        "collision.mingap-factor": "0", "time-to-teleport": "-1",

@@ -20,22 +20,26 @@ from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.cache import cached_net
 from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath, load_paths
-from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, IntersectionSpec
+from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, IntersectionSpec, exit_arm
+from intersection_cosim.scenario.demand import check_generic_spacing, check_vehicle_keys, generic_flow, generic_vehicle
 from intersection_cosim.scenario.model import (
     ControllerSettings,
     FlowSpec,
     KappaDistribution,
+    NetworkSettings,
     Scenario,
     ScenarioSettings,
     VehicleSpec,
 )
+from intersection_cosim.scenario.network import net_of, network_settings, route_file_ids
 from intersection_cosim.settings import from_table
 
-TOP_LEVEL = ("scenario", "controller", "model", "vehicle", "flow")
+TOP_LEVEL = ("scenario", "controller", "model", "network", "vehicle", "flow")
 CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed")
-FLOW_KEYS = ("id", "approach", "movement", "rate", "kappa", "begin", "end", "lane", "speed", "distance")
+FLOW_KEYS = ("id", "approach", "movement", "from", "to", "route", "rate", "kappa", "begin", "end", "lane", "speed",
+             "distance")
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error
 
 
@@ -87,19 +91,17 @@ def _place_by_position(src: str, field: str, xy: Any, movement: str, exit_lane: 
     return best[1], best[2], best[0]
 
 
-def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> VehicleSpec:
-    field = f"vehicle[{i}]"
+def _vehicle_id(src: str, i: int, table: Any) -> str:
     if not isinstance(table, dict):
-        raise InputError(src, field, table, "must be a table ([[vehicle]])")
-    _unknown_keys(src, field, table, VEHICLE_KEYS)
+        raise InputError(src, f"vehicle[{i}]", table, "must be a table ([[vehicle]])")
     vid = table.get("id")
     if not isinstance(vid, str) or not vid or any(ch.isspace() for ch in vid):
-        raise InputError(src, f"{field}.id", vid, "must be a non-empty string without spaces")
-    field = f"vehicle[{vid}]"
-    for key in ("movement", "speed", "kappa"):
-        if key not in table:
-            raise InputError(src, f"{field}.{key}", None, "is required")
-    movement = _choice(src, f"{field}.movement", table["movement"], MOVEMENTS)
+        raise InputError(src, f"vehicle[{i}].id", vid, "must be a non-empty string without spaces")
+    return vid
+
+
+def _motion(src: str, field: str, table: dict) -> tuple[float, float, float, float | None]:
+    """A vehicle's (speed [m/s], kappa [-], depart [s], desired_speed [m/s] or None)."""
     speed = _number(src, f"{field}.speed", table["speed"], minimum=0.0)
     kappa = _number(src, f"{field}.kappa", table["kappa"], minimum=0.0, maximum=1.0)
     depart = _number(src, f"{field}.depart", table.get("depart", 0.0), minimum=0.0)
@@ -110,6 +112,32 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
             raise InputError(src, f"{field}.desired_speed", desired, "must be > 0")
         if speed > desired:
             raise InputError(src, f"{field}.speed", speed, f"must not exceed desired_speed ({desired:g} m/s)")
+    return speed, kappa, depart, desired
+
+
+def _any_vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath], net) -> VehicleSpec:
+    """A ``[[vehicle]]`` table: on the generated net (``net`` None) or on a ``[network] file`` net."""
+    if net is None:
+        return _vehicle(src, i, table, paths)
+    vid = _vehicle_id(src, i, table)
+    check_vehicle_keys(src, f"vehicle[{i}]", table)
+    field = f"vehicle[{vid}]"
+    for key in ("speed", "kappa"):
+        if key not in table:
+            raise InputError(src, f"{field}.{key}", None, "is required")
+    return generic_vehicle(src, field, vid, table, net, _motion(src, field, table))
+
+
+def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> VehicleSpec:
+    if isinstance(table, dict):
+        _unknown_keys(src, f"vehicle[{i}]", table, VEHICLE_KEYS)
+    vid = _vehicle_id(src, i, table)
+    field = f"vehicle[{vid}]"
+    for key in ("movement", "speed", "kappa"):
+        if key not in table:
+            raise InputError(src, f"{field}.{key}", None, "is required")
+    movement = _choice(src, f"{field}.movement", table["movement"], MOVEMENTS)
+    speed, kappa, depart, desired = _motion(src, field, table)
     exit_lane = table.get("exit_lane")
     if exit_lane is not None:
         _choice(src, f"{field}.exit_lane", exit_lane, LANES)
@@ -163,16 +191,69 @@ def _kappa_distribution(src: str, field: str, value: Any) -> KappaDistribution:
     return KappaDistribution(dist=dist, **nums)
 
 
+def _paper_movement(src: str, field: str, table: dict) -> tuple[str, str]:
+    """(approach, movement) of a flow on the generated net given by edges: ``from`` / ``to`` or a
+    two-edge ``route``, like "south_in" -> "west_out"."""
+    for key in ("approach", "movement"):
+        if key in table:
+            raise InputError(src, f"{field}.{key}", table[key], "give either approach/movement or from/to/route")
+    if "route" in table:
+        route = table["route"]
+        if not isinstance(route, list) or len(route) != 2:
+            raise InputError(src, f"{field}.route", route, 'must be two edges on the generated net, like '
+                             '["south_in", "west_out"]')
+        start, end, start_field, end_field = route[0], route[1], f"{field}.route[0]", f"{field}.route[1]"
+    else:
+        for key in ("from", "to"):
+            if key not in table:
+                raise InputError(src, f"{field}.{key}", None, "is required (or approach/movement)")
+        start, end, start_field, end_field = table["from"], table["to"], f"{field}.from", f"{field}.to"
+    entries, exits = [f"{arm}_in" for arm in ARMS], [f"{arm}_out" for arm in ARMS]
+    if start not in entries:
+        raise InputError(src, start_field, start, f"is not an entry edge of the generated net ({', '.join(entries)})")
+    if end not in exits:
+        raise InputError(src, end_field, end, f"is not an exit edge of the generated net ({', '.join(exits)})")
+    approach = start[:-len("_in")]
+    for movement in MOVEMENTS:
+        if exit_arm(approach, movement) == end[:-len("_out")]:
+            return approach, movement
+    raise InputError(src, end_field, end, f"no route from {start!r} (the generated net has no U-turns)")
+
+
+def _flow_window(src: str, field: str, table: dict) -> tuple[float, float]:
+    """A flow's (begin, end) [s]."""
+    begin = _number(src, f"{field}.begin", table.get("begin", 0.0), minimum=0.0)
+    end = _number(src, f"{field}.end", table.get("end", 3600.0), minimum=0.0)
+    if end <= begin:
+        raise InputError(src, f"{field}.end", end, "must be > begin")
+    return begin, end
+
+
+def _any_flow(src: str, i: int, table: Any, net) -> FlowSpec:
+    """A ``[[flow]]`` table: on the generated net (``net`` None) or on a ``[network] file`` net."""
+    if net is None or not isinstance(table, dict):
+        return _flow(src, i, table)
+    field = f"flow[{i}]"
+    if "kappa" not in table:
+        raise InputError(src, f"{field}.kappa", None, "is required")
+    kappa = _kappa_distribution(src, f"{field}.kappa", table["kappa"])
+    return generic_flow(src, i, table, net, kappa, _flow_window(src, field, table))
+
+
 def _flow(src: str, i: int, table: Any) -> FlowSpec:
     field = f"flow[{i}]"
     if not isinstance(table, dict):
         raise InputError(src, field, table, "must be a table ([[flow]])")
     _unknown_keys(src, field, table, FLOW_KEYS)
-    for key in ("approach", "movement", "rate", "kappa"):
+    by_edges = any(key in table for key in ("from", "to", "route"))
+    for key in ("rate", "kappa") if by_edges else ("approach", "movement", "rate", "kappa"):
         if key not in table:
             raise InputError(src, f"{field}.{key}", None, "is required")
-    approach = _choice(src, f"{field}.approach", table["approach"], ARMS)
-    movement = _choice(src, f"{field}.movement", table["movement"], MOVEMENTS)
+    if by_edges:
+        approach, movement = _paper_movement(src, field, table)
+    else:
+        approach = _choice(src, f"{field}.approach", table["approach"], ARMS)
+        movement = _choice(src, f"{field}.movement", table["movement"], MOVEMENTS)
     fid = table.get("id", f"{approach}_{movement}_{i}")
     if not isinstance(fid, str) or not fid or any(ch.isspace() for ch in fid):
         raise InputError(src, f"{field}.id", fid, "must be a non-empty string without spaces")
@@ -181,10 +262,7 @@ def _flow(src: str, i: int, table: Any) -> FlowSpec:
         _choice(src, f"{field}.lane", lane, LANES)
         if movement not in LANE_USE[lane]:
             raise InputError(src, f"{field}.movement", movement, f"the {lane} lane cannot turn {movement}")
-    begin = _number(src, f"{field}.begin", table.get("begin", 0.0), minimum=0.0)
-    end = _number(src, f"{field}.end", table.get("end", 3600.0), minimum=0.0)
-    if end <= begin:
-        raise InputError(src, f"{field}.end", end, "must be > begin")
+    begin, end = _flow_window(src, field, table)
     distance = table.get("distance")
     return FlowSpec(
         id=fid, approach=approach, movement=movement,
@@ -227,8 +305,9 @@ def load_scenario(path: str | Path) -> Scenario:
     return scenario_from_dict(data, src)
 
 
-def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenario:
-    """Validate an already-parsed scenario (``src`` names it in messages)."""
+def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path | None = None) -> Scenario:
+    """Validate an already-parsed scenario (``src`` names it in messages; relative paths of its
+    ``[network]`` table start at ``base``, default the folder of ``src``)."""
     for key in data:
         if key not in TOP_LEVEL:
             raise InputError(src, key, data[key], f"unknown table (known: {', '.join(TOP_LEVEL)})")
@@ -246,31 +325,53 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>") -> Scenari
         raise InputError(src, "controller.kind", ctrl.kind, f"must be one of {', '.join(registry.names())}")
     settings = registry.validate_tables(ctrl.kind, tables, src)
     model = from_table(ModelSettings, data.get("model"), src, "model")
+    network = network_settings(src, data.get("network"), Path(src).parent if base is None else Path(base))
+    vehicles, flows = _demand(src, data, scen, model, network)
+    return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
+                    controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network)
 
-    paths = load_paths(cached_net(IntersectionSpec(junction_type=scen.junction_type)))
+
+def _demand(src: str, data: dict[str, Any], scen: ScenarioSettings, model: ModelSettings,
+            network: NetworkSettings) -> tuple[list[VehicleSpec], list[FlowSpec]]:
+    """The scenario's [[vehicle]] and [[flow]] tables, validated on its net."""
+    net = net_of(network)
+    paths = load_paths(cached_net(IntersectionSpec(junction_type=scen.junction_type))) if net is None else {}
     raw_vehicles = data.get("vehicle", [])
     if not isinstance(raw_vehicles, list):
         raise InputError(src, "vehicle", raw_vehicles, "must be an array of tables ([[vehicle]])")
-    vehicles = [_vehicle(src, i, t, paths) for i, t in enumerate(raw_vehicles)]
+    vehicles = [_any_vehicle(src, i, t, paths, net) for i, t in enumerate(raw_vehicles)]
     seen: set[str] = set()
     for v in vehicles:
         if v.id in seen:
             raise InputError(src, "vehicle.id", v.id, "duplicate id")
         seen.add(v.id)
-    _check_spacing(src, vehicles, paths, model.vehicle_length)
+    if net is None:
+        _check_spacing(src, vehicles, paths, model.vehicle_length)
+    else:
+        check_generic_spacing(src, vehicles, model.vehicle_length)
     raw_flows = data.get("flow", [])
     if not isinstance(raw_flows, list):
         raise InputError(src, "flow", raw_flows, "must be an array of tables ([[flow]])")
-    flows = [_flow(src, i, t) for i, t in enumerate(raw_flows)]
+    flows = [_any_flow(src, i, t, net) for i, t in enumerate(raw_flows)]
     fids: set[str] = set()
     for f in flows:
         if f.id in fids or f.id in seen:
             raise InputError(src, "flow.id", f.id, "duplicate id")
         fids.add(f.id)
-    if not vehicles and not flows:
+    if network.routes is not None:
+        _check_route_file_ids(src, network.routes, seen | fids)
+    elif not vehicles and not flows:
         raise InputError(src, "vehicle", [], "a scenario needs at least one [[vehicle]] or [[flow]]")
-    return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
-                    controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows))
+    return vehicles, flows
+
+
+def _check_route_file_ids(src: str, routes: str, ours: set[str]) -> None:
+    """The user's route file must not redefine the run's vType ``av`` or reuse the scenario's ids."""
+    types, demand = route_file_ids(routes)
+    if "av" in types:
+        raise InputError(src, "network.routes", routes, "defines vType 'av', the type of the scenario's own vehicles")
+    for vid in sorted(demand & ours):
+        raise InputError(src, "network.routes", routes, f"reuses the id {vid!r} of a [[vehicle]] or [[flow]]")
 
 
 def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | None = None,
@@ -296,11 +397,37 @@ def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | 
     return dataclasses.replace(scn, controller=ctrl, scenario=scen)
 
 
+def _draw_kappa(kd: KappaDistribution, rng: np.random.Generator) -> float:
+    """One vehicle's kappa [-] from ``kd`` (one rng draw unless fixed), clipped to [0, 1]."""
+    if kd.dist == "uniform":
+        kappa = rng.uniform(kd.low, kd.high)
+    elif kd.dist == "normal":
+        kappa = rng.normal(kd.mean, kd.std)
+    else:
+        kappa = kd.value
+    return float(np.clip(kappa, 0.0, 1.0))
+
+
+def _flow_arrival(flow: FlowSpec, k: int, t: float, kappa: float, rng: np.random.Generator) -> dict:
+    """The k-th vehicle of ``flow``, departing at ``t`` [s]; a paper flow draws its lane from ``rng``."""
+    common = {"id": f"{flow.id}.{k}", "flow": flow.id, "approach": flow.approach, "movement": flow.movement,
+              "depart": round(float(t), 2), "kappa": kappa, "distance": flow.distance}
+    if flow.route is not None:
+        return {**common, "lane": "", "route": flow.route, "depart_lane": flow.depart_lane,
+                "speed": flow.depart_speed, "depart_pos": flow.depart_pos}
+    lanes = [flow.lane] if flow.lane else [ln for ln in LANES if flow.movement in LANE_USE[ln]]
+    return {**common, "lane": lanes[int(rng.integers(len(lanes)))], "speed": flow.speed, "route": None}
+
+
 def generate_flow_vehicles(scn: Scenario, rng: np.random.Generator) -> list[dict]:
     """Poisson arrivals of every flow, drawn with ``rng`` (seeded from the scenario's seed).
 
-    Returns one dict per vehicle: id, approach, lane, movement, depart [s], kappa, speed [m/s],
-    distance [m] to the stop line (None = start of the arm).
+    Returns one dict per vehicle, sorted by (depart, id): id, flow (its flow's id), approach, lane,
+    movement, depart [s], kappa, speed [m/s], distance [m] to the stop line (None = start of the
+    arm) and route (None). A flow on a ``[network] file`` net (``route`` not None) gives
+    approach, movement and lane "", route (tuple of edge ids), depart_lane ("best" or an index as
+    str), speed (SUMO's departSpeed, "max" or a number as str) and depart_pos [m] (None = "base").
+    Per vehicle the draws are: headway, kappa (unless fixed), lane (paper flows only).
     """
     out: list[dict] = []
     for flow in scn.flows:
@@ -309,19 +436,9 @@ def generate_flow_vehicles(scn: Scenario, rng: np.random.Generator) -> list[dict
         mean_headway = 3600.0 / flow.rate  # [s]
         t = flow.begin + rng.exponential(mean_headway)
         k = 0
-        lanes = [flow.lane] if flow.lane else [ln for ln in LANES if flow.movement in LANE_USE[ln]]
         while t < min(flow.end, scn.scenario.duration):
-            kd = flow.kappa
-            if kd.dist == "uniform":
-                kappa = rng.uniform(kd.low, kd.high)
-            elif kd.dist == "normal":
-                kappa = rng.normal(kd.mean, kd.std)
-            else:
-                kappa = kd.value
-            out.append({"id": f"{flow.id}.{k}", "approach": flow.approach, "movement": flow.movement,
-                        "lane": lanes[int(rng.integers(len(lanes)))], "depart": round(float(t), 2),
-                        "kappa": float(np.clip(kappa, 0.0, 1.0)), "speed": flow.speed,
-                        "distance": flow.distance})
+            kappa = _draw_kappa(flow.kappa, rng)
+            out.append(_flow_arrival(flow, k, t, kappa, rng))
             k += 1
             t += rng.exponential(mean_headway)
     out.sort(key=lambda d: (d["depart"], d["id"]))

@@ -46,17 +46,46 @@ class ControllerSettings:
         return positive(self, "period", "budget_ms")
 
 
+PAPER_JUNCTION = "C"  # the generated net's centre node (network/build.py)
+SIGNALS = ("off", "on")  # [network] signals: traffic lights of managed junctions switched off / kept
+
+
+@dataclass(frozen=True)
+class NetworkSettings:
+    """The ``[network]`` table: the SUMO net a run drives on and the junctions the controller manages.
+
+    ``file`` None is the generated paper net (built per ``scenario.junction_type``); then the other
+    fields keep their defaults. Paths are stored resolved: absolute, ``$VARS`` and ``~`` expanded.
+    """
+
+    file: str | None = None  # [-] absolute path of a SUMO .net.xml; None = the generated paper net
+    junctions: tuple[str, ...] = (PAPER_JUNCTION,)  # [-] ids of the net's junctions the controller manages
+    signals: str = "off"  # [-] traffic-light junctions among them: "off" = run unsignalized, "on" = keep the lights
+    control_range: float = 100.0  # [m] upstream of a junction where the controller takes a vehicle over
+    routes: str | None = None  # [-] absolute path of the user's own SUMO route file (None: none)
+
+    @property
+    def generated(self) -> bool:
+        """True on the generated paper net (no ``file``)."""
+        return self.file is None
+
+
 @dataclass(frozen=True)
 class VehicleSpec:
-    """One hand-placed vehicle (a ``[[vehicle]]`` table), resolved onto a movement path."""
+    """One hand-placed vehicle (a ``[[vehicle]]`` table), resolved onto a movement path.
+
+    On a net given by ``[network] file`` (``route`` not None) there is no paper movement:
+    ``approach``, ``movement`` and ``path_id`` are "", ``lane`` is the SUMO lane id it starts on,
+    ``s0`` = ``depart_pos`` and ``x``, ``y`` are in the net's frame.
+    """
 
     id: str
-    approach: str  # arm it comes from: north / east / south / west
-    lane: str  # inner / middle / outer
-    movement: str  # left / straight / right
-    path_id: str  # the movement path it starts on (see network/paths.py)
-    s0: float  # [m] start arc length along that path (front bumper)
-    x: float  # [m] start position in the paper frame (on the path)
+    approach: str  # arm it comes from: north / east / south / west ("" on a generic net)
+    lane: str  # inner / middle / outer (the SUMO lane id on a generic net)
+    movement: str  # left / straight / right ("" on a generic net)
+    path_id: str  # the movement path it starts on (see network/paths.py; "" on a generic net)
+    s0: float  # [m] start arc length along that path (front bumper; along its lane on a generic net)
+    x: float  # [m] start position in the paper frame (on the path; the net's frame on a generic net)
     y: float  # [m]
     speed: float  # [m/s] start speed
     kappa: float  # [-] aggressiveness in [0, 1]
@@ -64,6 +93,9 @@ class VehicleSpec:
     exit_lane: str | None = None  # preferred exit lane (None: the movement's default)
     in_junction: bool = False  # starts on the junction-internal lane
     desired_speed: float | None = None  # [m/s] its own desired / max speed (J_e, Eq. 24); None: model v_max
+    route: tuple[str, ...] | None = None  # [-] edge ids it drives, first = where it starts (None: paper forms)
+    depart_lane: int | None = None  # [-] SUMO lane index on route[0] (None: paper forms)
+    depart_pos: float | None = None  # [m] front bumper along that lane (None: paper forms)
 
 
 @dataclass(frozen=True)
@@ -80,11 +112,16 @@ class KappaDistribution:
 
 @dataclass(frozen=True)
 class FlowSpec:
-    """A ``[[flow]]`` table: Poisson arrivals on one approach and movement."""
+    """A ``[[flow]]`` table: Poisson arrivals on one approach and movement, or on one ``route``.
+
+    On a net given by ``[network] file`` (``route`` not None) ``approach`` and ``movement`` are ""
+    and ``lane``, ``speed``, ``distance`` keep their defaults; ``depart_lane``, ``depart_speed``
+    and ``depart_pos`` say how SUMO inserts the vehicles.
+    """
 
     id: str
-    approach: str
-    movement: str
+    approach: str  # arm the vehicles come from ("" on a generic net)
+    movement: str  # left / straight / right ("" on a generic net)
     rate: float  # [veh/h]
     kappa: KappaDistribution
     begin: float = 0.0  # [s]
@@ -92,6 +129,10 @@ class FlowSpec:
     lane: str | None = None  # approach lane; None = any lane that allows the movement
     speed: float = 10.0  # [m/s] insertion speed
     distance: float | None = None  # [m] from the stop line at insertion; None = arm's start
+    route: tuple[str, ...] | None = None  # [-] edge ids the vehicles drive (None: paper forms)
+    depart_lane: str = "best"  # [-] SUMO departLane: "best", "random", "free", "first", "allowed" or an index
+    depart_speed: str = "max"  # [m/s] SUMO departSpeed: a number, "max", "desired", "speedLimit" or "random"
+    depart_pos: float | None = None  # [m] departPos along route[0]; None = "base" (its start)
 
 
 @dataclass(frozen=True)
@@ -104,3 +145,4 @@ class Scenario:
     controller_tables: dict = field(default_factory=dict)  # the raw sub-tables, re-validated on --controller
     vehicles: tuple[VehicleSpec, ...] = ()
     flows: tuple[FlowSpec, ...] = ()
+    network: NetworkSettings = NetworkSettings()  # the [network] table (default: the generated paper net)

@@ -131,3 +131,127 @@ def test_console_script_prints_no_traceback(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
     assert "vehicle[V1].kappa = 2" in proc.stderr
+
+
+# ---- [network] and demand by edge ids (SUMO's cross example: junction "0", edges 1fi -> 1si -> 0 -> 2o ...)
+
+NET = """
+[scenario]
+name = "bad"
+duration = 5.0
+
+[network]
+file = "$SUMO_HOME/tools/game/cross/cross.net.xml"
+junctions = ["0"]
+"""
+
+GOOD_FLOW = """
+[[flow]]
+from = "1fi"
+to = "2o"
+rate = 300
+kappa = 0.5
+"""
+
+GOOD_EDGE_VEHICLE = """
+[[vehicle]]
+id = "A"
+edge = "1si"
+lane = 1
+pos = 100.0
+to = "3o"
+speed = 5.0
+kappa = 0.5
+"""
+
+BAD_ROUTES = '<routes>\n  <vehicle id="x" depart="0"><route edges="1si nowhere"/></vehicle>\n</routes>\n'
+
+# (label, scenario text, extra files {name: text}, field expected in the message, value expected in the message)
+NETWORK_CASES = [
+    ("net file missing", NET.replace("$SUMO_HOME/tools/game/cross/cross.net.xml", "nope.net.xml") + GOOD_FLOW, {},
+     "network.file", "'nope.net.xml': no such file"),
+    ("net file malformed", NET.replace("$SUMO_HOME/tools/game/cross/cross.net.xml", "bad.net.xml") + GOOD_FLOW,
+     {"bad.net.xml": "<net><edge id="}, "network.file", "'bad.net.xml': is not a SUMO net"),
+    ("net file without edges", NET.replace("$SUMO_HOME/tools/game/cross/cross.net.xml", "empty.net.xml") + GOOD_FLOW,
+     {"empty.net.xml": "<net version=\"1.20\"/>"}, "network.file", "it has no edges"),
+    ("net file is a folder", NET.replace("$SUMO_HOME/tools/game/cross/cross.net.xml", ".") + GOOD_FLOW, {},
+     "network.file", "'.': cannot be read"),
+    ("unset variable", NET.replace("$SUMO_HOME", "$NO_SUCH_COSIM_VAR") + GOOD_FLOW, {},
+     "network.file", "$NO_SUCH_COSIM_VAR is not set"),
+    ("unknown network key", NET + "junktions = [\"0\"]\n" + GOOD_FLOW, {}, "network.junktions", "unknown key"),
+    ("junction not in the net", NET.replace('["0"]', '["m9"]') + GOOD_FLOW, {},
+     "network.junctions", "'m9': is not a junction of the net (nearest: 'm4', 'm3', 'm2')"),
+    ("no junctions", NET.replace('["0"]', "[]") + GOOD_FLOW, {}, "network.junctions", "[]"),
+    ("junctions not a list", NET.replace('["0"]', '"0"') + GOOD_FLOW, {}, "network.junctions", "'0'"),
+    ("junctions not strings", NET.replace('["0"]', "[0]") + GOOD_FLOW, {}, "network.junctions", "[0]"),
+    ("junctions missing", NET.replace('junctions = ["0"]\n', "") + GOOD_FLOW, {}, "network.junctions", "is required"),
+    ("signals neither on nor off", NET + 'signals = "yes"\n' + GOOD_FLOW, {}, "network.signals", "'yes'"),
+    ("control range zero", NET + "control_range = 0.0\n" + GOOD_FLOW, {}, "network.control_range", "0.0: must be > 0"),
+    ("control range negative", NET + "control_range = -5\n" + GOOD_FLOW, {}, "network.control_range", "-5"),
+    ("route file missing", NET + 'routes = "nope.rou.xml"\n' + GOOD_FLOW, {}, "network.routes", "no such file"),
+    ("route file not XML", NET + 'routes = "r.rou.xml"\n' + GOOD_FLOW, {"r.rou.xml": "vehicles, please"},
+     "network.routes", "is not SUMO routes XML"),
+    ("route file not routes", NET + 'routes = "r.rou.xml"\n' + GOOD_FLOW, {"r.rou.xml": "<additional/>"},
+     "network.routes", "<additional>, not <routes>"),
+    ("route file SUMO refuses", NET + 'routes = "r.rou.xml"\n' + GOOD_FLOW, {"r.rou.xml": BAD_ROUTES},
+     "network.routes", "SUMO refuses it: Error: The edge 'nowhere'"),
+    ("route file redefines av", NET + 'routes = "r.rou.xml"\n' + GOOD_FLOW,
+     {"r.rou.xml": '<routes><vType id="av"/></routes>'},
+     "network.routes", "defines vType 'av'"),
+    ("route file reuses an id", NET + 'routes = "r.rou.xml"\n' + GOOD_EDGE_VEHICLE,
+     {"r.rou.xml": '<routes><trip id="A" depart="0" from="4fi" to="3fo"/></routes>'}, "network.routes", "'A'"),
+    ("junctions without a file", HEADER + '[network]\njunctions = ["0"]\n' + GOOD_VEHICLE, {},
+     "network.junctions", "['0']: needs network.file"),
+    ("routes without a file", HEADER + '[network]\nroutes = "r.rou.xml"\n' + GOOD_VEHICLE, {},
+     "network.routes", "needs network.file"),
+    ("flow without a route", NET + GOOD_FLOW.replace('"2o"', '"1fo"'), {}, "flow[0].to", "'1fo': no route"),
+    ("flow from an unknown edge", NET + GOOD_FLOW.replace('"1fi"', '"1xi"'), {}, "flow[0].from", "'1xi'"),
+    ("flow to missing", NET + GOOD_FLOW.replace('to = "2o"\n', ""), {}, "flow[0].to", "is required"),
+    ("flow route not connected", NET + '[[flow]]\nroute = ["1fi", "2o"]\nrate = 300\nkappa = 0.5\n', {},
+     "flow[0].route[1]", "'2o': is not reached from '1fi'"),
+    ("flow route and from", NET + GOOD_FLOW + 'route = ["1si", "2o"]\n', {}, "flow[0].from", "either route"),
+    ("flow by approach on a net file", NET + '[[flow]]\napproach = "north"\nmovement = "left"\nrate = 300\n'
+     'kappa = 0.5\n', {}, "flow[0].approach", "generated net only"),
+    ("flow lane out of range", NET + GOOD_FLOW + "lane = 5\n", {}, "flow[0].lane",
+     "5: must be a lane index of edge '1fi'"),
+    ("flow pos beyond the edge", NET + GOOD_FLOW + "pos = 41.0\n", {}, "flow[0].pos", "41.0: must be <= 40.7"),
+    ("flow speed word", NET + GOOD_FLOW + 'speed = "fast"\n', {}, "flow[0].speed", "'fast'"),
+    ("flow unknown key", NET + GOOD_FLOW + "movement_ = 1\n", {}, "flow[0].movement_", "unknown key"),
+    ("vehicle on an unknown edge", NET + GOOD_EDGE_VEHICLE.replace('"1si"', '"1sj"'), {}, "vehicle[A].edge",
+     "'1sj': is not an edge of the net (nearest: '1si'"),
+    ("vehicle lane out of range", NET + GOOD_EDGE_VEHICLE.replace("lane = 1", "lane = 3"), {}, "vehicle[A].lane", "3"),
+    ("vehicle pos beyond the lane", NET + GOOD_EDGE_VEHICLE.replace("100.0", "140.0"), {}, "vehicle[A].pos",
+     "140.0: must be <= 135.75"),
+    ("vehicle position off every lane", NET + GOOD_EDGE_VEHICLE.replace('edge = "1si"\nlane = 1\npos = 100.0',
+     "position = [0.0, 0.0]"), {}, "vehicle[A].position", "[0.0, 0.0]: more than 1 m"),
+    ("vehicle position and edge", NET + GOOD_EDGE_VEHICLE.replace("lane = 1", "position = [300.0, 214.1]"), {},
+     "vehicle[A].edge", "either position"),
+    ("vehicle without a destination", NET + GOOD_EDGE_VEHICLE.replace('to = "3o"\n', ""), {}, "vehicle[A].to",
+     "is required"),
+    ("vehicle route not from its edge", NET + GOOD_EDGE_VEHICLE.replace('to = "3o"', 'route = ["2si", "4o"]'), {},
+     "vehicle[A].route", "must start on the vehicle's edge '1si'"),
+    ("vehicle to unreachable", NET + GOOD_EDGE_VEHICLE.replace('"3o"', '"1o"'), {}, "vehicle[A].to", "'1o': no route"),
+    ("vehicle by movement on a net file", NET + GOOD_EDGE_VEHICLE + 'movement = "left"\n', {}, "vehicle[0].movement",
+     "generated net only"),
+    ("vehicles too close", NET + GOOD_EDGE_VEHICLE + GOOD_EDGE_VEHICLE.replace('"A"', '"B"').replace("100.0", "102.0"),
+     {}, "vehicle[B].pos", "102.0: within 4.5 m of A on lane 1si_1"),
+    ("paper flow by a foreign edge", HEADER + '[[flow]]\nfrom = "1si"\nto = "west_out"\nrate = 100\nkappa = 0.5\n', {},
+     "flow[0].from", "'1si': is not an entry edge of the generated net"),
+    ("paper flow U-turn", HEADER + '[[flow]]\nfrom = "south_in"\nto = "south_out"\nrate = 100\nkappa = 0.5\n', {},
+     "flow[0].to", "'south_out': no route from 'south_in'"),
+]
+
+
+@pytest.mark.parametrize("label,text,files,field,value", NETWORK_CASES, ids=[c[0] for c in NETWORK_CASES])
+def test_bad_network_or_demand(tmp_path, capsys, label, text, files, field, value):
+    for name, content in files.items():
+        (tmp_path / name).write_text(content)
+    rc, err, scenario, out = _run(tmp_path, text, capsys)
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert str(scenario) in lines[0]
+    assert f"{field} = " in lines[0]
+    assert value in lines[0]
+    assert "Traceback" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["scenario.toml", *files])  # nothing written

@@ -1,0 +1,209 @@
+"""The ``[network]`` table -> :class:`NetworkSettings`: which SUMO net, junctions and route file.
+
+Paths are relative to the scenario file; ``$VARS`` and ``~`` are expanded, and ``$SUMO_HOME``
+falls back to the eclipse-sumo package's SUMO_HOME when the variable is unset. The net is read
+once with sumolib (cached by path and modification time); a user route file is checked by
+letting SUMO load it for one second of simulated time. Nothing is written anywhere.
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import math
+import os
+import re
+import subprocess
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import sumolib
+
+from intersection_cosim.errors import InputError
+from intersection_cosim.scenario.model import PAPER_JUNCTION, SIGNALS, NetworkSettings
+
+NETWORK_KEYS = ("file", "junctions", "signals", "control_range", "routes")
+ROUTE_CHECK_TIMEOUT = 30.0  # [s] wall time SUMO may take to load a user route file
+VAR = re.compile(r"\$(\w+)|\$\{(\w+)\}")
+
+
+def sumo_home() -> str:
+    """``$SUMO_HOME`` if set, else the eclipse-sumo package's SUMO_HOME."""
+    env = os.environ.get("SUMO_HOME")
+    if env:
+        return env
+    import sumo
+
+    return str(sumo.SUMO_HOME)
+
+
+def sumo_binary() -> str:
+    """The ``sumo`` binary of the eclipse-sumo package (the one libsumo belongs to)."""
+    import sumo
+
+    return os.path.join(str(sumo.SUMO_HOME), "bin", "sumo")
+
+
+def resolve_path(src: str, field: str, value: Any, base: Path) -> str:
+    """``value`` with ``~`` and ``$VARS`` expanded, made absolute against ``base`` (not checked to exist)."""
+    if not isinstance(value, str) or not value.strip():
+        raise InputError(src, field, value, "must be a non-empty string (a file path)")
+
+    def expand(match: re.Match) -> str:
+        name = match.group(1) or match.group(2)
+        if name == "SUMO_HOME":
+            return sumo_home()
+        if name not in os.environ:
+            raise InputError(src, field, value, f"${name} is not set")
+        return os.environ[name]
+
+    text = os.path.expanduser(VAR.sub(expand, value))
+    return str((base / text).resolve())
+
+
+@functools.lru_cache(maxsize=8)
+def _read_net_cached(path: str, mtime_ns: int, size: int) -> sumolib.net.Net:
+    return sumolib.net.readNet(path)
+
+
+def read_net(path: str) -> sumolib.net.Net:
+    """The sumolib net of ``path`` (no internal lanes), read once per file version."""
+    st = os.stat(path)
+    return _read_net_cached(path, st.st_mtime_ns, st.st_size)
+
+
+def _net(src: str, value: Any, path: str) -> sumolib.net.Net:
+    field = "network.file"
+    if not os.path.exists(path):
+        raise InputError(src, field, value, f"no such file ({path})")
+    if not os.path.isfile(path) or not os.access(path, os.R_OK):
+        raise InputError(src, field, value, f"cannot be read ({path})")
+    try:
+        net = read_net(path)
+    except Exception as exc:  # lxml / sax parse errors, bad attributes
+        raise InputError(src, field, value, f"is not a SUMO net ({type(exc).__name__}: {exc})") from None
+    if not net.getEdges():
+        raise InputError(src, field, value, "is not a SUMO net (it has no edges)")
+    return net
+
+
+def nearest(name: str, known: list[str], n: int = 3) -> str:
+    """``name``'s nearest ids among ``known``, for a message ("nearest: 'a', 'b'"; a few ids if none is near)."""
+    close = difflib.get_close_matches(name, known, n=n, cutoff=0.5)
+    if close:
+        return "nearest: " + ", ".join(repr(c) for c in close)
+    return "the net has " + ", ".join(repr(c) for c in sorted(known)[:n]) + (", ..." if len(known) > n else "")
+
+
+def _junctions(src: str, value: Any, net: sumolib.net.Net) -> tuple[str, ...]:
+    field = "network.junctions"
+    if not isinstance(value, list) or not value or not all(isinstance(j, str) and j for j in value):
+        raise InputError(src, field, value, 'must be a non-empty list of junction ids, like ["0"]')
+    if len(set(value)) != len(value):
+        raise InputError(src, field, value, "lists a junction twice")
+    known = [node.getID() for node in net.getNodes() if node.getType() != "dead_end"]
+    for jid in value:
+        if not net.hasNode(jid):
+            raise InputError(src, field, jid, f"is not a junction of the net ({nearest(jid, known)})")
+    return tuple(value)
+
+
+def _signals(src: str, value: Any) -> str:
+    if value not in SIGNALS:
+        raise InputError(src, "network.signals", value, f"must be one of {', '.join(repr(s) for s in SIGNALS)}")
+    return value
+
+
+def _control_range(src: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(src, "network.control_range", value, "must be a finite number [m]")
+    if value <= 0:
+        raise InputError(src, "network.control_range", value, "must be > 0 [m]")
+    return float(value)
+
+
+def route_file_ids(path: str) -> tuple[set[str], set[str]]:
+    """The vType ids and the vehicle / trip / flow ids a route file defines (top level)."""
+    root = ET.parse(path).getroot()
+    types = {el.get("id") for el in root if el.tag == "vType"}
+    demand = {el.get("id") for el in root if el.tag in ("vehicle", "trip", "flow", "person", "personFlow")}
+    return types, demand
+
+
+def _routes(src: str, value: Any, path: str, net_file: str) -> str:
+    field = "network.routes"
+    if not os.path.isfile(path):
+        raise InputError(src, field, value, f"no such file ({path})")
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError) as exc:
+        raise InputError(src, field, value, f"is not SUMO routes XML ({exc})") from None
+    if root.tag != "routes":
+        raise InputError(src, field, value, f"is not SUMO routes XML (its root is <{root.tag}>, not <routes>)")
+    refusal = _sumo_refusal(net_file, path, os.stat(net_file).st_mtime_ns, os.stat(path).st_mtime_ns)
+    if refusal is not None:
+        raise InputError(src, field, value, f"SUMO refuses it: {refusal}")
+    return path
+
+
+@functools.lru_cache(maxsize=8)
+def _sumo_refusal(net_file: str, routes: str, net_mtime_ns: int, routes_mtime_ns: int) -> str | None:
+    """SUMO's first "Error:" line loading ``routes`` on ``net_file`` for 1 s (None: it accepts them).
+
+    Cached per file versions: a sweep loads one scenario many times.
+    """
+    args = [sumo_binary(), "--net-file", net_file, "--route-files", routes, "--begin", "0", "--end", "1",
+            "--no-step-log", "true", "--no-warnings", "true", "--duration-log.disable", "true"]
+    try:
+        proc = subprocess.run(args, capture_output=True, text=True, timeout=ROUTE_CHECK_TIMEOUT,
+                              env={**os.environ, "SUMO_HOME": sumo_home()})  # SUMO_HOME: XML schema checks
+    except subprocess.TimeoutExpired:
+        return None  # SUMO took long but has not refused them; the run will tell
+    if proc.returncode == 0:
+        return None
+    lines = [ln for ln in (proc.stderr + proc.stdout).splitlines() if ln.startswith("Error:")]
+    return lines[0] if lines else f"SUMO exit status {proc.returncode}"
+
+
+def network_settings(src: str, table: Any, base: Path) -> NetworkSettings:
+    """Validate the ``[network]`` table; ``base`` is the folder relative paths start from."""
+    if table is None:
+        return NetworkSettings()
+    if not isinstance(table, dict):
+        raise InputError(src, "network", table, "must be a table")
+    for key in table:
+        if key not in NETWORK_KEYS:
+            raise InputError(src, f"network.{key}", table[key], f"unknown key (known: {', '.join(NETWORK_KEYS)})")
+    if "file" not in table:
+        return _generated(src, table)
+    net_file = resolve_path(src, "network.file", table["file"], base)
+    net = _net(src, table["file"], net_file)
+    if "junctions" not in table:
+        raise InputError(src, "network.junctions", None, "is required with network.file (the ids to manage)")
+    routes = None
+    if "routes" in table:
+        routes = _routes(src, table["routes"], resolve_path(src, "network.routes", table["routes"], base), net_file)
+    return NetworkSettings(file=net_file, junctions=_junctions(src, table["junctions"], net),
+                           signals=_signals(src, table.get("signals", "off")),
+                           control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes)
+
+
+def _generated(src: str, table: dict) -> NetworkSettings:
+    """A ``[network]`` table without ``file``: the generated net; the rest must be absent or default."""
+    default = NetworkSettings()
+    if "junctions" in table and table["junctions"] != [PAPER_JUNCTION]:
+        raise InputError(src, "network.junctions", table["junctions"],
+                         f'needs network.file (the generated net manages its centre, ["{PAPER_JUNCTION}"])')
+    if "signals" in table and _signals(src, table["signals"]) != default.signals:
+        raise InputError(src, "network.signals", table["signals"], "needs network.file")
+    if "control_range" in table and _control_range(src, table["control_range"]) != default.control_range:
+        raise InputError(src, "network.control_range", table["control_range"], "needs network.file")
+    if "routes" in table:
+        raise InputError(src, "network.routes", table["routes"], "needs network.file")
+    return default
+
+
+def net_of(settings: NetworkSettings) -> sumolib.net.Net | None:
+    """The sumolib net of a ``[network] file`` (None on the generated net)."""
+    return None if settings.file is None else read_net(settings.file)
