@@ -6,7 +6,9 @@ lane(s) SUMO built for the connection (an internal junction in the middle splits
 more than one) -> to lane, id ``"<from lane>><to lane>"``. The approach is extended upstream
 through *unique predecessors* (a lane with exactly one incoming lane whose only outgoing lane is
 this one; internal lanes of unmanaged junctions count) until it is ``control_range`` metres long,
-so short OSM edges still give the controller room to act.
+so short OSM edges still give the controller room to act. SUMO's own foe relation between the
+junction's links is recorded as a second opinion on the geometric conflicts
+(:func:`~intersection_cosim.network.conflicts.movement_conflicts`).
 """
 
 from __future__ import annotations
@@ -188,6 +190,23 @@ def _exits(paths: dict[str, MovementPath], from_index: dict[str, int]):
     return exits, siblings
 
 
+def _foes(node, conns: list, pids: list[str]) -> set[tuple[str, str]]:
+    """Pairs of path ids (both orders) whose links SUMO's right-of-way logic marks as foes."""
+    out = set()
+    for i, ci in enumerate(conns):
+        for j in range(i + 1, len(conns)):
+            li, lj = ci.getJunctionIndex(), conns[j].getJunctionIndex()
+            if li < 0 or lj < 0 or pids[i] == pids[j]:
+                continue
+            try:
+                foes = node.areFoes(li, lj) or node.areFoes(lj, li)
+            except (KeyError, IndexError):  # a node without right-of-way logic for these links
+                foes = False
+            if foes:
+                out |= {(pids[i], pids[j]), (pids[j], pids[i])}
+    return out
+
+
 def _managed_lanes(net, nodes: list) -> frozenset:
     """Lanes no approach may extend through: the managed junctions' from and internal lanes."""
     lanes = set()
@@ -200,7 +219,7 @@ def _managed_lanes(net, nodes: list) -> frozenset:
 
 
 def _junction_paths(net, graph, node, control_range: float, vclass: str, blocked: frozenset):
-    """Paths and their from lanes' indices of one managed junction."""
+    """Paths, their from lanes' indices and SUMO's foe pairs of one managed junction."""
     conns = drivable_connections(node, vclass)
     upstream: dict[str, list] = {}
     paths: dict[str, MovementPath] = {}
@@ -212,7 +231,8 @@ def _junction_paths(net, graph, node, control_range: float, vclass: str, blocked
             from_index[lane.getID()] = lane.getIndex()
         path = _path(conn, upstream[lane.getID()], _internal_chain(net, conn), node.getID())
         paths.setdefault(path.id, path)
-    return paths, from_index
+    foes = _foes(node, conns, [f"{c.getFromLane().getID()}>{c.getToLane().getID()}" for c in conns])
+    return paths, from_index, foes
 
 
 @functools.lru_cache(maxsize=8)
@@ -224,16 +244,18 @@ def _load_movements(net_file: str, junctions: tuple[str, ...], control_range: fl
     blocked = _managed_lanes(net, nodes)
     paths: dict[str, MovementPath] = {}
     from_index: dict[str, int] = {}
+    foes: set[tuple[str, str]] = set()
     for node in nodes:
-        p, f = _junction_paths(net, graph, node, control_range, vclass, blocked)
+        p, f, fo = _junction_paths(net, graph, node, control_range, vclass, blocked)
         paths.update(p)
         from_index.update(f)
+        foes |= fo
     exits, siblings = _exits(paths, from_index)
     roles = {}
     for path in paths.values():
         roles.update({lane: READY for lane in path.lanes[:path.stop_index]})
         roles.update({lane: PASSING for lane in path.junction_lanes})
-    return Movements(net_file, junctions, paths, exits, siblings, roles,
+    return Movements(net_file, junctions, paths, exits, siblings, roles, foes=frozenset(foes),
                      control_range=control_range, vclass=vclass)
 
 

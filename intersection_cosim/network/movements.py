@@ -36,6 +36,7 @@ class Movements:
     exits: Mapping[str, tuple[str, ...]]  # path id -> exit lanes of its movement, preferred first
     siblings: Mapping[tuple[str, str], str]  # (path id, exit lane) -> the sibling path's id
     roles: Mapping[str, str]  # SUMO lane id -> READY (before the stop line) or PASSING (in the junction)
+    foes: frozenset[tuple[str, str]] = frozenset()  # path id pairs (both orders) SUMO's right of way calls foes
     control_range: float | None = None  # [m] approach length the paths were extended to (None: as the net has it)
     vclass: str = "passenger"  # the SUMO vehicle class whose movements these are
 
