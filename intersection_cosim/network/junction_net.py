@@ -9,6 +9,9 @@ this one; internal lanes of unmanaged junctions count) until it is ``control_ran
 so short OSM edges still give the controller room to act. SUMO's own foe relation between the
 junction's links is recorded as a second opinion on the geometric conflicts
 (:func:`~intersection_cosim.network.conflicts.movement_conflicts`).
+
+:func:`junction_table` lists a net's junctions with what they hold and whether they can be
+managed, and why not.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import functools
 from dataclasses import dataclass
 from pathlib import Path as FsPath
 
+import pandas as pd
 import sumolib
 from sumolib import geomhelper
 
@@ -270,3 +274,33 @@ def load_movements(net_file: str | FsPath, junctions: tuple[str, ...], control_r
     """
     unique = tuple(dict.fromkeys(str(j) for j in junctions))
     return _load_movements(str(net_file), unique, float(control_range), str(vclass))
+
+
+def _node_row(node, vclass: str, include_all: bool) -> dict | None:
+    def drivable(edges):
+        return [e for e in edges if e.getFunction() == "" and any(ln.allows(vclass) for ln in e.getLanes())]
+
+    inc, out = drivable(node.getIncoming()), drivable(node.getOutgoing())
+    arms = len({e.getFromNode().getID() for e in inc} | {e.getToNode().getID() for e in out})
+    if not include_all and arms < 3 and node.getType() != "traffic_light":
+        return None
+    problem = junction_problem(node, vclass)
+    return {"id": node.getID(), "type": node.getType(), "arms": arms, "in": len(inc), "out": len(out),
+            "lanes_in": sum(ln.allows(vclass) for e in inc for ln in e.getLanes()),
+            "lanes_out": sum(ln.allows(vclass) for e in out for ln in e.getLanes()),
+            "connections": len(drivable_connections(node, vclass)),
+            "manageable": not problem, "reason": problem}
+
+
+TABLE_COLUMNS = ("id", "type", "arms", "in", "out", "lanes_in", "lanes_out", "connections", "manageable", "reason")
+
+
+def junction_table(net_file: str | FsPath, all_junctions: bool = False, vclass: str = "passenger") -> pd.DataFrame:
+    """One row per junction of the net: ``arms`` (neighbouring junctions joined by a road open to
+    ``vclass``), ``in`` / ``out`` (such incoming / outgoing edges), ``lanes_in`` / ``lanes_out``
+    (their lanes open to ``vclass``), ``connections`` (drivable by ``vclass``), ``manageable`` and
+    the ``reason`` if not. Without ``all_junctions`` only intersections: 3 or more arms, or a
+    traffic light."""
+    net, _ = _read(str(net_file))
+    rows = [_node_row(n, vclass, all_junctions) for n in net.getNodes() if n.getType() != "internal"]
+    return pd.DataFrame([r for r in rows if r is not None], columns=list(TABLE_COLUMNS))
