@@ -33,6 +33,8 @@ examples:
       a GIF of the run drawn from its outputs (runs/case1_A/animation.gif)
   intersection-cosim net --arms 3 --lanes 2 --out nets/t_junction
       build a net with netconvert: here a T-junction, two lanes a road (default: the paper's cross)
+  intersection-cosim junctions '$SUMO_HOME/tools/game/cross/cross.net.xml'
+      the intersections of any SUMO net and whether the controller can manage them (--all: every junction)
 
 'intersection-cosim COMMAND --help' describes a command's options."""
 
@@ -153,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
     report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
     _add_animate(sub)
+    _add_junctions(sub)
     return parser
 
 
@@ -162,6 +165,39 @@ def _add_animate(sub) -> None:
     animate.add_argument("--out", help="FILE.gif or FILE.mp4 (MP4 needs ffmpeg; default: RUN_DIR/animation.gif)")
     animate.add_argument("--fps", type=_positive_float, default=10.0,
                          help="[1/s] frames per second; one frame per 0.1 s of simulation (default 10: real time)")
+
+
+def _add_junctions(sub) -> None:
+    junctions = sub.add_parser("junctions", help="list the junctions of a SUMO net and whether they can be managed")
+    junctions.add_argument("net", help="a SUMO net file (.net.xml); $SUMO_HOME in it is expanded")
+    junctions.add_argument("--all", action="store_true",
+                           help="every junction, not only intersections (3 or more arms, or a traffic light)")
+
+
+def _expand_net_path(text: str) -> str:
+    """``text`` with ``~`` and environment variables expanded (os.path.expandvars); with SUMO_HOME
+    unset, ``$SUMO_HOME`` is the eclipse-sumo package's."""
+    import os
+
+    if "SUMO_HOME" not in os.environ:
+        try:
+            import sumo
+        except ImportError:
+            pass
+        else:
+            text = text.replace("${SUMO_HOME}", sumo.SUMO_HOME).replace("$SUMO_HOME", sumo.SUMO_HOME)
+    return os.path.expanduser(os.path.expandvars(text))
+
+
+def _cmd_junctions(args) -> int:
+    import pandas as pd
+
+    from intersection_cosim.network.junction_net import junction_table
+
+    table = junction_table(_expand_net_path(args.net), all_junctions=args.all)
+    with pd.option_context("display.max_rows", None, "display.max_columns", None, "display.width", 200):
+        print(table.to_string(index=False) if len(table) else "no junctions")
+    return 0
 
 
 def _cmd_net(args) -> int:
@@ -239,7 +275,7 @@ def _cmd_animate(args) -> int:
 
 
 COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare,
-            "report": _cmd_report, "animate": _cmd_animate}
+            "report": _cmd_report, "animate": _cmd_animate, "junctions": _cmd_junctions}
 
 
 def main(argv: list[str] | None = None) -> int:

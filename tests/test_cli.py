@@ -9,7 +9,7 @@ import pytest
 from intersection_cosim.cli import main
 from intersection_cosim.control import registry
 
-COMMANDS = ("net", "run", "sweep", "compare", "report")
+COMMANDS = ("net", "run", "sweep", "compare", "report", "animate", "junctions")
 
 
 def _help(capsys, *argv: str) -> str:
@@ -41,3 +41,24 @@ def test_run_help_lists_the_registry_controllers(capsys):
 def test_sweep_help_spells_controllers_as_compare(capsys):
     assert "--controllers K1,K2" in _help(capsys, "sweep")
     assert "--controllers K1,K2" in _help(capsys, "compare")
+
+
+def test_junctions_lists_a_net_named_through_sumo_home(capsys, monkeypatch):
+    import sumo
+
+    monkeypatch.delenv("SUMO_HOME", raising=False)  # falls back to the eclipse-sumo package's
+    assert main(["junctions", "$SUMO_HOME/tools/game/cross/cross.net.xml"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["id", "type", "arms", "in", "out", "lanes_in", "lanes_out", "connections",
+                                "manageable", "reason"]
+    assert [ln.split() for ln in lines[1:]] == [["0", "traffic_light", "4", "4", "4", "10", "4", "12", "True"]]
+    monkeypatch.setenv("SUMO_HOME", sumo.SUMO_HOME)
+    assert main(["junctions", "${SUMO_HOME}/tools/game/cross/cross.net.xml", "--all"]) == 0
+    out = capsys.readouterr().out
+    assert len(out.splitlines()) == 1 + 9 and "dead end" in out
+
+
+def test_junctions_of_a_missing_net_is_one_line_and_status_2(capsys, tmp_path):
+    assert main(["junctions", str(tmp_path / "none.net.xml")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "no such file" in err

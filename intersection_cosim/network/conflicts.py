@@ -36,6 +36,11 @@ that ``b``'s bodies sweep through the junction. A vehicle whose front is past
 ``zone_out`` has cleared the crossing whatever the other does; an oblique crossing (a left turn)
 takes several metres more than ``s_a + length`` to clear, which a point plus a constant misses.
 
+Only paths through the same junction are paired. For the movements of any net
+(:func:`movement_conflicts`), SUMO's foe relation between the junction's links is a second
+opinion: a foe pair the rules above find no conflict for is guarded as a **cross** conflict at the
+closest approach of the two junction stretches.
+
 Outside the junction, paths on different lanes run 4 m apart, so only the junction stretch
 ``[s_stop, s_exit]`` (plus one resampling step either side) is searched for rules 2 and 3.
 
@@ -43,7 +48,8 @@ Outside the junction, paths on different lanes run 4 m apart, so only the juncti
 indices, which is what the run-time code (risk, ETM, controllers) uses: looking up the conflict points of
 all vehicle pairs is one fancy-indexing operation.
 
-Pure data; reads the net only through :func:`~intersection_cosim.network.paths.load_paths`.
+Pure data; reads the net only through :func:`~intersection_cosim.network.paths.load_paths` (or a
+:class:`~intersection_cosim.network.movements.Movements` built beforehand).
 """
 
 from __future__ import annotations
@@ -56,6 +62,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from sumolib import geomhelper
 
+from intersection_cosim.network.movements import Movements
 from intersection_cosim.network.paths import MovementPath, load_paths
 
 KIND_NONE = 0
@@ -160,6 +167,16 @@ def _cross(a: MovementPath, b: MovementPath, width: float) -> ConflictPoint | No
             s_b = float(cand[np.argmin(np.linalg.norm(b.point_at(cand) - point, axis=1))])
             return ConflictPoint(a.id, b.id, "cross", s_a, s_b, float(point[0]), float(point[1]))
     # No crossing, but closer than a vehicle width: the closest approach.
+    return _closest(a, b, (sa, xa), (sb, xb), dist)
+
+
+def _closest(a: MovementPath, b: MovementPath, part_a=None, part_b=None, dist=None) -> ConflictPoint:
+    """A **cross** point at the closest approach of the two junction stretches (``(x, y)`` the
+    midpoint); the stretches and their distance matrix [m] are computed unless given."""
+    sa, xa = part_a if part_a is not None else _junction_part(a)
+    sb, xb = part_b if part_b is not None else _junction_part(b)
+    if dist is None:
+        dist = np.linalg.norm(xa[:, None, :] - xb[None, :, :], axis=2)
     k = np.unravel_index(int(np.argmin(dist)), dist.shape)
     s_a, s_b = float(sa[k[0]]), float(sb[k[1]])
     x, y = 0.5 * (xa[k[0]] + xb[k[1]])
@@ -178,17 +195,25 @@ def conflict_point(a: MovementPath, b: MovementPath, vehicle_width: float = 1.8)
     return _cross(a, b, vehicle_width)
 
 
-def conflict_points(paths: dict[str, MovementPath], vehicle_width: float = 1.8) -> dict[tuple[str, str], ConflictPoint]:
+def conflict_points(paths: dict[str, MovementPath], vehicle_width: float = 1.8,
+                    foes: frozenset[tuple[str, str]] = frozenset()) -> dict[tuple[str, str], ConflictPoint]:
     """Conflict points of every pair of paths, keyed ``(a, b)`` with ``s_a`` on ``a``.
 
     Both orientations are present (``(b, a)`` is the swap of ``(a, b)``), and every path is paired
-    with itself as a following conflict. Pairs without a conflict are absent.
+    with itself as a following conflict. Pairs without a conflict are absent. Only paths through
+    the same junction (``MovementPath.junction``) are paired. A pair in ``foes`` (SUMO's right of
+    way calls their links foes) for which the rules find no conflict is guarded as a **cross**
+    conflict at the closest approach of the two junction stretches.
     """
     ids = sorted(paths)
     out: dict[tuple[str, str], ConflictPoint] = {}
     for n, a in enumerate(ids):
         for b in ids[n:]:
+            if paths[a].junction != paths[b].junction:
+                continue
             cp = conflict_point(paths[a], paths[b], vehicle_width)
+            if cp is None and (a, b) in foes:
+                cp = _closest(paths[a], paths[b])
             if cp is None:
                 continue
             out[(a, b)] = cp
@@ -343,3 +368,32 @@ def load_conflict_table(net_file: str | FsPath, vehicle_width: float = 1.8,
                         vehicle_length: float = 4.5) -> ConflictTable:
     """:class:`ConflictTable` of the net, cached per (net file, width [m], length [m])."""
     return _load_conflict_table(str(net_file), float(vehicle_width), float(vehicle_length))
+
+
+_MOVEMENT_CACHE: dict[tuple, object] = {}  # (kind, movements.key, sizes...) -> conflicts or table
+_MOVEMENT_CACHE_SIZE = 16
+
+
+def _cached(key: tuple, build):
+    if key not in _MOVEMENT_CACHE:
+        if len(_MOVEMENT_CACHE) >= _MOVEMENT_CACHE_SIZE:
+            _MOVEMENT_CACHE.pop(next(iter(_MOVEMENT_CACHE)))  # the oldest entry
+        _MOVEMENT_CACHE[key] = build()
+    return _MOVEMENT_CACHE[key]
+
+
+def movement_conflicts(movements: Movements, vehicle_width: float = 1.8) -> dict[tuple[str, str], ConflictPoint]:
+    """:func:`conflict_points` of the movements' paths with SUMO's foes guarded, cached per
+    (``movements.key``, width [m])."""
+    width = float(vehicle_width)
+    return _cached(("points", movements.key, width),
+                   lambda: conflict_points(dict(movements.paths), width, movements.foes))
+
+
+def movement_conflict_table(movements: Movements, vehicle_width: float = 1.8,
+                            vehicle_length: float = 4.5) -> ConflictTable:
+    """:class:`ConflictTable` of the movements, cached per (``movements.key``, width [m], length [m])."""
+    width, length = float(vehicle_width), float(vehicle_length)
+    return _cached(("table", movements.key, width, length),
+                   lambda: ConflictTable.build(dict(movements.paths), movement_conflicts(movements, width),
+                                               length, width))

@@ -8,7 +8,8 @@ lane: they are *siblings*, and a vehicle on one may still switch to another whil
 controller and the simulator adapter never take path or lane ids apart.
 
 :func:`paper_movements` builds it for the generated intersection of the paper (arms, lane names
-and lane use of :mod:`~intersection_cosim.network.spec`).
+and lane use of :mod:`~intersection_cosim.network.spec`);
+:func:`~intersection_cosim.network.junction_net.load_movements` for the junctions of any SUMO net.
 """
 
 from __future__ import annotations
@@ -35,6 +36,9 @@ class Movements:
     exits: Mapping[str, tuple[str, ...]]  # path id -> exit lanes of its movement, preferred first
     siblings: Mapping[tuple[str, str], str]  # (path id, exit lane) -> the sibling path's id
     roles: Mapping[str, str]  # SUMO lane id -> READY (before the stop line) or PASSING (in the junction)
+    foes: frozenset[tuple[str, str]] = frozenset()  # path id pairs (both orders) SUMO's right of way calls foes
+    control_range: float | None = None  # [m] approach length the paths were extended to (None: as the net has it)
+    vclass: str = "passenger"  # the SUMO vehicle class whose movements these are
 
     def options(self, path_id: str) -> tuple[str, ...]:
         """The exit lanes a vehicle on ``path_id`` may take, preferred first."""
@@ -55,7 +59,7 @@ class Movements:
     @property
     def key(self) -> tuple:
         """What identifies these movements (for caches)."""
-        return (self.net_file, self.junctions)
+        return (self.net_file, self.junctions, self.control_range, self.vclass)
 
 
 @functools.lru_cache(maxsize=8)
@@ -67,7 +71,8 @@ def _paper_movements(net_file: str) -> Movements:
         base = PathId.parse(pid)
         for exit_lane in exits[pid]:
             siblings[(pid, exit_lane)] = str(base.with_exit(exit_lane))
-        roles[path.lanes[0]] = READY
+        for lane in path.lanes[:path.stop_index]:
+            roles[lane] = READY
         for lane in path.junction_lanes:
             roles[lane] = PASSING
     return Movements(net_file, ("C",), paths, exits, siblings, roles)

@@ -37,18 +37,17 @@ class MovementPath:
     movement: str
     exit_arm: str
     exit_lane: str
-    lanes: tuple[str, ...]  # SUMO lane ids in driving order (approach, internal..., exit)
+    lanes: tuple[str, ...]  # SUMO lane ids in driving order (approach..., internal..., exit)
     lane_starts: tuple[float, ...]  # [m] arc length at which each lane begins
-    s_stop: float  # [m] arc length of the stop line (end of the approach lane)
+    s_stop: float  # [m] arc length of the stop line (end of the approach lane, start of lanes[stop_index])
     s_exit: float  # [m] arc length where the path leaves the junction (start of the exit lane)
     length: float  # [m] total arc length
     s: np.ndarray = field(repr=False)  # [m] resampled arc lengths, shape (n,)
     xy: np.ndarray = field(repr=False)  # [m] centre-line points at s, shape (n, 2)
     heading: np.ndarray = field(repr=False)  # [rad] heading at s, counter-clockwise from east
     curvature: np.ndarray = field(repr=False)  # [1/m] signed curvature at s (left turn > 0)
-    stop_index: int = 1  # index in ``lanes`` of the first junction-internal lane (the lanes before
-    #                      it are the approach: the approach lane and, on any net, its upstream lanes)
-    junction: str = ""  # the id of the junction the path passes
+    stop_index: int = 1  # index in ``lanes`` of the first junction-internal lane (lanes before it: the approach)
+    junction: str = ""  # id of the managed junction the path crosses ("" for the generated net)
 
     @property
     def approach_lane(self) -> str:
@@ -57,6 +56,7 @@ class MovementPath:
 
     @property
     def junction_lanes(self) -> tuple[str, ...]:
+        """The junction-internal lanes, in driving order."""
         return self.lanes[self.stop_index:-1]
 
     def point_at(self, s: float | np.ndarray) -> np.ndarray:
@@ -115,6 +115,42 @@ def _heading_curvature(s: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.nd
     return heading, curvature
 
 
+@dataclass(frozen=True)
+class CentreLine:
+    """The resampled centre line of a chain of lanes (what a MovementPath's geometry is built from)."""
+
+    s: np.ndarray  # [m] arc lengths, RESAMPLE_STEP apart, shape (n,)
+    xy: np.ndarray  # [m] points at s, shape (n, 2)
+    heading: np.ndarray  # [rad] heading at s, counter-clockwise from east (unwrapped)
+    curvature: np.ndarray  # [1/m] signed curvature at s (left turn > 0)
+    lane_starts: tuple[float, ...]  # [m] arc length at which each lane begins
+
+    @property
+    def length(self) -> float:
+        """[m] total arc length."""
+        return float(self.s[-1])
+
+
+def centre_line(lanes) -> CentreLine:
+    """Centre line of sumolib lanes in driving order: their shapes joined (each joint point once),
+    resampled RESAMPLE_STEP apart, with heading and curvature (:func:`_heading_curvature`)."""
+    shape: list[tuple[float, float]] = []
+    starts = []
+    total = 0.0
+    for ln in lanes:
+        starts.append(total)
+        pts = [tuple(p[:2]) for p in ln.getShape()]
+        shape.extend(pts if not shape else pts[1:])
+        total += geomhelper.polyLength(pts)
+    s, xy = _resample(shape, RESAMPLE_STEP)
+    # Arc length of the resampled line differs from the lanes' sum only by the
+    # de-duplicated joints; scale lane starts onto it.
+    scale = s[-1] / total
+    starts = [st * scale for st in starts]
+    heading, curvature = _heading_curvature(s, xy)
+    return CentreLine(s=s, xy=xy, heading=heading, curvature=curvature, lane_starts=tuple(starts))
+
+
 def _path_lanes(net, approach_lane, exit_lane_id: str) -> list | None:
     for conn in approach_lane.getOutgoing():
         if conn.getToLane().getID() != exit_lane_id:
@@ -145,26 +181,14 @@ def load_paths(net_file: str | FsPath) -> dict[str, MovementPath]:
                     lanes = _path_lanes(net, approach_lane, f"{arm}_out_{LANE_INDEX[exit_lane]}")
                     if lanes is None:
                         raise ValueError(f"{net_file}: no connection {approach} {lane} {movement} -> {exit_lane}")
-                    shape: list[tuple[float, float]] = []
-                    starts = []
-                    total = 0.0
-                    for ln in lanes:
-                        starts.append(total)
-                        pts = [tuple(p[:2]) for p in ln.getShape()]
-                        shape.extend(pts if not shape else pts[1:])
-                        total += geomhelper.polyLength(pts)
-                    s, xy = _resample(shape, RESAMPLE_STEP)
-                    # Arc length of the resampled line differs from the lanes' sum only by the
-                    # de-duplicated joints; scale lane starts onto it.
-                    scale = s[-1] / total
-                    starts = [st * scale for st in starts]
-                    heading, curvature = _heading_curvature(s, xy)
+                    line = centre_line(lanes)
                     pid = str(PathId(approach, lane, movement, exit_lane))
                     paths[pid] = MovementPath(
                         id=pid, approach=approach, lane=lane, movement=movement, exit_arm=arm,
                         exit_lane=exit_lane, lanes=tuple(ln.getID() for ln in lanes),
-                        lane_starts=tuple(starts), s_stop=starts[1], s_exit=starts[-1],
-                        length=float(s[-1]), s=s, xy=xy, heading=heading, curvature=curvature)
+                        lane_starts=line.lane_starts, s_stop=line.lane_starts[1], s_exit=line.lane_starts[-1],
+                        length=line.length, s=line.s, xy=line.xy, heading=line.heading,
+                        curvature=line.curvature)
     return paths
 
 
