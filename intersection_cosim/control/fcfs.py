@@ -61,7 +61,7 @@ from intersection_cosim.network.conflicts import (
     KIND_CONFLUENCE,
     KIND_CROSS,
     KIND_FOLLOWING,
-    load_conflict_table,
+    movement_conflict_table,
 )
 from intersection_cosim.settings import positive
 
@@ -193,8 +193,8 @@ class FcfsController:
             self.fs = context.settings
         self.paths = context.paths
         self.model = context.model
-        self.table = load_conflict_table(context.net_file, context.model.vehicle_width,
-                                         context.model.vehicle_length)
+        self.table = movement_conflict_table(context.movements, context.model.vehicle_width,
+                                             context.model.vehicle_length)
         self._approach_lane = {pid: p.approach_lane for pid, p in self.paths.items()}
         self._point_key: dict = {}
 

@@ -51,7 +51,7 @@ from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
 from intersection_cosim.games.qp import reset_workspaces, solve_count
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
-from intersection_cosim.network.conflicts import load_conflict_table
+from intersection_cosim.network.conflicts import movement_conflict_table
 
 EQUILIBRIA = {"nash": nash_equilibrium, "stackelberg": stackelberg_equilibrium}
 
@@ -110,7 +110,8 @@ class GameController:
             self.settings = context.settings
         game = self.settings.game
         self.ctx, self.model, self.paths = context, context.model, context.paths
-        self.table = load_conflict_table(context.net_file, context.model.vehicle_width, context.model.vehicle_length)
+        self.table = movement_conflict_table(context.movements, context.model.vehicle_width,
+                                             context.model.vehicle_length)
         shift = max(1, int(round(context.control_period / game.dt)))
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt)
         lane_costs = LaneChangeCosts(context.movements, context.model)

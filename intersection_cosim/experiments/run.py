@@ -30,7 +30,8 @@ from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_
                                                   write_sumocfg)
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
-from intersection_cosim.network.conflicts import load_conflicts
+from intersection_cosim.network.conflicts import movement_conflicts
+from intersection_cosim.network.junction_net import load_movements
 from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.movements import Movements, paper_movements
 from intersection_cosim.network.paths import MovementPath
@@ -88,9 +89,11 @@ def finish_output(tmp: Path, out: Path) -> None:
 
 
 def resolved_settings(scn: Scenario) -> dict:
-    """The settings a run of ``scn`` records in summary.json's ``settings`` (scenario, controller,
-    model and the controller's [controller.*] tables after defaults and overrides): what makes two runs the same run."""
-    return {"scenario": to_dict(scn.scenario), "controller": to_dict(scn.controller), "model": to_dict(scn.model),
+    """The settings a run of ``scn`` records in summary.json's ``settings`` (scenario, network,
+    controller, model and the controller's [controller.*] tables after defaults and overrides):
+    what makes two runs the same run."""
+    return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "controller": to_dict(scn.controller),
+            "model": to_dict(scn.model),
             "controller_settings": to_dict(scn.controller_settings)
             if dataclasses.is_dataclass(scn.controller_settings) else None}
 
@@ -189,9 +192,8 @@ def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     """Create the run's controller and write its SUMO inputs (net, routes, config) into ``folder``."""
     s = scn.scenario
     controller = registry.create(scn.controller.kind, scn.controller_settings, s.junction_type)
-    net = cached_net(IntersectionSpec(junction_type=controller.junction_type))
+    net, movements = _movements(scn, controller)
     shutil.copyfile(net, folder / NET_FILE)
-    movements = paper_movements(net)
     rng = np.random.default_rng(s.seed)
     flow_vehicles = generate_flow_vehicles(scn, rng)
     write_routes(folder / ROUTE_FILE, scn, movements.paths, flow_vehicles)
@@ -199,16 +201,38 @@ def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     return _Inputs(controller, net, movements, flow_vehicles)
 
 
+def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
+    """The net the run drives on and the movements of its managed junctions: the generated paper
+    net (built for the controller's junction type), or the scenario's own net file."""
+    if scn.network.generated:
+        net = cached_net(IntersectionSpec(junction_type=controller.junction_type))
+        return net, paper_movements(net)
+    if controller.junction_type == "allway_stop":
+        raise InputError(scn.source, "controller.kind", scn.controller.kind,
+                         "an all-way stop needs the generated net (a net file keeps its own junction types)")
+    net = Path(scn.network.file)
+    return net, load_movements(net, scn.network.junctions, scn.network.control_range)
+
+
 def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -> dict[str, dict]:
     """The keyword arguments of each vehicle's ``sim.sumo.VehicleInfo``, by id: the scenario's
-    vehicles, then those of its flows."""
+    vehicles, then those of its flows. On a net file a vehicle has no intended path: the adapter
+    picks it from the vehicle's lane and route when it reaches a managed junction."""
     specs: dict[str, dict] = {}
     for v in scn.vehicles:
+        if v.route is not None:
+            specs[v.id] = dict(approach="", lane="", movement="", kappa=v.kappa, intended_path=None,
+                               controlled=controlled, desired_speed=v.desired_speed, route=frozenset(v.route))
+            continue
         specs[v.id] = dict(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
                            intended_path=v.path_id, controlled=controlled,
                            exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
                            start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
     for fv in flow_vehicles:
+        if fv.get("route") is not None:
+            specs[fv["id"]] = dict(approach="", lane="", movement="", kappa=fv["kappa"], intended_path=None,
+                                   controlled=controlled, route=frozenset(fv["route"]))
+            continue
         pid = str(PathId(fv["approach"], fv["lane"], fv["movement"], default_exit_lane(fv["lane"], fv["movement"])))
         specs[fv["id"]] = dict(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
                                kappa=fv["kappa"], intended_path=pid, controlled=controlled)
@@ -232,7 +256,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     # a sweep's supervising process, which imports this module through experiments.executors.
     from intersection_cosim.sim.gui import GuiView
     from intersection_cosim.sim.scheduler import StepScheduler
-    from intersection_cosim.sim.sumo import LIBSUMO, SumoSimulation, VehicleInfo
+    from intersection_cosim.sim.sumo import LANE_CHANGE_MODE_STRATEGIC, LIBSUMO, SumoSimulation, VehicleInfo
 
     s, controller = scn.scenario, inputs.controller
     specs = _vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
@@ -244,22 +268,35 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
     observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
+    generic = {} if scn.network.generated else dict(lane_change_mode=LANE_CHANGE_MODE_STRATEGIC,
+                                                    adopt_controlled=controller.controls_vehicles,
+                                                    control_range=scn.network.control_range)
     sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,
-                         exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO)
+                         exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO,
+                         **generic)
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
         # the command line (the config's go to replay/)
         sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder))
+        if _signals_off(scn, controller):
+            sim.switch_signals_off()
         if view is not None:
             view.attach(sim.api)
         records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain)
-        final_paths = dict(sim.current_path)
+        final_paths = {**sim.left_paths, **sim.current_path}
         exit_lanes = dict(sim.exit_lane_taken)
+        infos = dict(sim.vehicles)  # with the vehicles of the user's own route file
     finally:
         sim.close()
         if view is not None:
             view.close()
     return _Simulated(infos, records, final_paths, exit_lanes)
+
+
+def _signals_off(scn: Scenario, controller: Controller) -> bool:
+    """Whether the managed junctions' lights go off: on a net file with ``signals = "off"``,
+    for every controller but SUMO's own signal programme (``sumo-tls``)."""
+    return not scn.network.generated and scn.network.signals == "off" and controller.junction_type != "traffic_light"
 
 
 def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float) -> _Records:
@@ -305,10 +342,23 @@ def _result_tables(scn: Scenario, folder: Path, inputs: _Inputs, simulated: _Sim
     tripinfo = read_tripinfo(folder / TRIPINFO_FILE)
     ssm = read_ssm(folder / SSM_FILE)
     collisions = read_collisions(folder / COLLISIONS_FILE)
-    vehicles = vehicle_table(simulated.infos, tripinfo, simulated.exit_lanes, collisions)
-    pairs = pair_table(traj, simulated.final_paths, inputs.paths, load_conflicts(inputs.net, scn.model.vehicle_width),
+    vehicles = vehicle_table(_with_movements(simulated.infos, simulated.final_paths, inputs.paths), tripinfo,
+                             simulated.exit_lanes, collisions)
+    pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, scn.model.vehicle_width),
                        scn.model, ssm, simulated.records.game_steps)
     return _Tables(traj, steps, tripinfo, collisions, vehicles, pairs)
+
+
+def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str, MovementPath]) -> dict:
+    """``infos`` with the approach (edge) and movement of the path each vehicle without a named
+    one took (on a net file vehicles are known by their routes)."""
+    out = {}
+    for vid, info in infos.items():
+        pid = final_paths.get(vid)
+        if not info.approach and pid in paths:
+            info = dataclasses.replace(info, approach=paths[pid].approach, movement=paths[pid].movement)
+        out[vid] = info
+    return out
 
 
 def _write_tables(folder: Path, tables: _Tables, game_rows: list[tuple], diagnostics: Diagnostics) -> None:

@@ -104,6 +104,7 @@ class SumoSimulation:
     time: float = 0.0  # [s]
     states: dict[str, dict] = field(default_factory=dict)
     current_path: dict[str, str] = field(default_factory=dict)
+    left_paths: dict[str, str] = field(default_factory=dict)  # the last path of vehicles that left every path
     exit_lane_taken: dict[str, str] = field(default_factory=dict)
     departed: dict[str, float] = field(default_factory=dict)
     arrived: dict[str, float] = field(default_factory=dict)
@@ -111,6 +112,7 @@ class SumoSimulation:
     switched: set[str] = field(default_factory=set)  # vehicles moved onto another connection
     lane_change_mode: int = LANE_CHANGE_MODE_CONTROLLED  # of a controlled vehicle
     adopt_controlled: bool = True  # vehicles of the user's own route file are controlled
+    control_range: float = math.inf  # [m] before the stop line where a vehicle without an intended path is taken over
     taken: set[str] = field(default_factory=set)  # vehicles whose speed the controller commands
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
@@ -188,7 +190,7 @@ class SumoSimulation:
             return
         if role == READY and info.intended_path is None:
             pid = self._approach_path(lane, info)
-            if pid is not None:
+            if pid is not None and self._within_range(vid, lane, self.paths[pid]):
                 self.current_path[vid] = pid
                 self._take_over(vid, info)
                 return
@@ -199,7 +201,7 @@ class SumoSimulation:
             if vid not in self.exit_lane_taken:
                 self.exit_lane_taken[vid] = self.paths[current].exit_lane
         elif lane not in self.paths[current].lanes:
-            del self.current_path[vid]  # left the managed junction's paths
+            self.left_paths[vid] = self.current_path.pop(vid)  # left the managed junction's paths
 
     def _approach_path(self, lane: str, info: VehicleInfo) -> str | None:
         """The path of a vehicle on approach lane ``lane`` whose route leaves by the path's exit
@@ -210,6 +212,11 @@ class SumoSimulation:
                     return self.movements.siblings.get((pid, info.exit_lane), pid)
                 return self.movements.sibling(pid, self.movements.preferred(pid))
         return None
+
+    def _within_range(self, vid: str, lane: str, path: MovementPath) -> bool:
+        """Whether ``vid`` on ``lane`` of ``path`` is within ``control_range`` of its stop line."""
+        s = path.lane_starts[path.lanes.index(lane)] + self.states[vid][libsumo.VAR_LANEPOSITION]  # [m]
+        return path.s_stop - s <= self.control_range
 
     def _take_over(self, vid: str, info: VehicleInfo) -> None:
         """The controller commands ``vid`` from now on (a controlled vehicle, not yet taken)."""

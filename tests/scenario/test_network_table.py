@@ -205,11 +205,32 @@ def test_network_table_without_file_is_the_generated_net():
     assert scn.network == NetworkSettings() and scn.network.file is None and scn.network.junctions == ("C",)
 
 
-@pytest.mark.parametrize("path", sorted(SCENARIOS.glob("*.toml")), ids=lambda p: p.stem)
-def test_shipped_scenarios_run_on_the_generated_net(path):
+PAPER_NET_SCENARIOS = sorted(p for p in SCENARIOS.glob("*.toml") if p.stem.startswith(("case", "demand_")))
+NET_FILE_SCENARIOS = sorted(p for p in SCENARIOS.glob("*.toml") if p not in PAPER_NET_SCENARIOS)
+
+
+@pytest.mark.parametrize("path", PAPER_NET_SCENARIOS, ids=lambda p: p.stem)
+def test_the_paper_and_demand_scenarios_run_on_the_generated_net(path):
     scn = load_scenario(path)
     assert scn.network == NetworkSettings()
     assert all(v.route is None for v in scn.vehicles) and all(f.route is None for f in scn.flows)
+
+
+@pytest.mark.parametrize("path", NET_FILE_SCENARIOS, ids=lambda p: p.stem)
+def test_the_net_file_scenarios_route_every_flow_through_their_junction(path):
+    """Each shipped net-file scenario names an existing net and junction, and SUMO's router found
+    a route for every flow that passes the managed junction (its edges enter and leave it)."""
+    import sumolib
+
+    scn = load_scenario(path)
+    assert scn.network.file is not None and Path(scn.network.file).is_file()
+    net = sumolib.net.readNet(scn.network.file)
+    (junction,) = scn.network.junctions
+    incoming = {e.getID() for e in net.getNode(junction).getIncoming()}
+    outgoing = {e.getID() for e in net.getNode(junction).getOutgoing()}
+    assert len(scn.flows) >= 6
+    for f in scn.flows:
+        assert f.route and incoming & set(f.route) and outgoing & set(f.route), f.id
 
 
 def test_sumo_home_is_the_package_home_when_unset(monkeypatch):
