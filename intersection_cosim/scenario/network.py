@@ -21,6 +21,7 @@ from typing import Any
 import sumolib
 
 from intersection_cosim.errors import InputError
+from intersection_cosim.network.junction_net import load_movements
 from intersection_cosim.scenario.model import PAPER_JUNCTION, SIGNALS, NetworkSettings
 
 NETWORK_KEYS = ("file", "junctions", "signals", "control_range", "routes")
@@ -184,9 +185,20 @@ def network_settings(src: str, table: Any, base: Path) -> NetworkSettings:
     routes = None
     if "routes" in table:
         routes = _routes(src, table["routes"], resolve_path(src, "network.routes", table["routes"], base), net_file)
-    return NetworkSettings(file=net_file, junctions=_junctions(src, table["junctions"], net),
-                           signals=_signals(src, table.get("signals", "off")),
-                           control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes)
+    settings = NetworkSettings(file=net_file, junctions=_junctions(src, table["junctions"], net),
+                               signals=_signals(src, table.get("signals", "off")),
+                               control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes)
+    _check_manageable(src, settings)
+    return settings
+
+
+def _check_manageable(src: str, settings: NetworkSettings) -> None:
+    """The junctions' movements load (a dead end, a rail crossing or a junction without drivable
+    connections is refused), reported against the scenario file; the movements stay cached."""
+    try:
+        load_movements(settings.file, settings.junctions, settings.control_range)
+    except InputError as exc:
+        raise InputError(src, exc.field, exc.value, exc.problem) from None
 
 
 def _generated(src: str, table: dict) -> NetworkSettings:

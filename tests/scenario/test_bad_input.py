@@ -181,6 +181,8 @@ NETWORK_CASES = [
     ("unknown network key", NET + "junktions = [\"0\"]\n" + GOOD_FLOW, {}, "network.junktions", "unknown key"),
     ("junction not in the net", NET.replace('["0"]', '["m9"]') + GOOD_FLOW, {},
      "network.junctions", "'m9': is not a junction of the net (nearest: 'm4', 'm3', 'm2')"),
+    ("a dead end to manage", NET.replace('["0"]', '["1"]') + GOOD_FLOW, {}, "network.junctions",
+     "'1': is a dead end"),
     ("no junctions", NET.replace('["0"]', "[]") + GOOD_FLOW, {}, "network.junctions", "[]"),
     ("junctions not a list", NET.replace('["0"]', '"0"') + GOOD_FLOW, {}, "network.junctions", "'0'"),
     ("junctions not strings", NET.replace('["0"]', "[0]") + GOOD_FLOW, {}, "network.junctions", "[0]"),
