@@ -28,6 +28,12 @@ def lane_polygon(shape: np.ndarray, width: float) -> np.ndarray:
     return np.vstack([shape + normal, (shape - normal)[::-1]])
 
 
+def junction_centre(net_file: str | Path, junction: str) -> tuple[float, float]:
+    """[m] the position of ``junction`` in the net's frame."""
+    x, y = sumolib.net.readNet(str(net_file)).getNode(junction).getCoord()[:2]
+    return float(x), float(y)
+
+
 def read_outline(net_file: str | Path) -> NetOutline:
     """The outline of ``net_file``'s lanes and junctions (sumolib, with internal lanes)."""
     net = sumolib.net.readNet(str(net_file), withInternal=True)

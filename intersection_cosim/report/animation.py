@@ -29,7 +29,7 @@ import pandas as pd
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.network.build import NET_FILE
-from intersection_cosim.network.outline import NetOutline, read_outline
+from intersection_cosim.network.outline import NetOutline, junction_centre, read_outline
 from intersection_cosim.report.animation_frames import FrameDrawer
 from intersection_cosim.results.layout import (CONVERGENCE_FILE, GAMES_FILE, RUN_MARKER, TRAJECTORIES_FILE,
                                                VEHICLES_FILE)
@@ -64,6 +64,7 @@ class RunRecord:
     length: float  # [m]
     width: float  # [m]
     title: str
+    centre: tuple[float, float] = (0.0, 0.0)  # [m] the view's centre: the (first) managed junction
 
 
 def check_run_dir(run_dir: str | Path) -> Path:
@@ -103,10 +104,12 @@ def read_run(run_dir: Path, settings: AnimationSettings) -> RunRecord:
     else:
         games = pd.DataFrame(columns=["time", "vehicle_a", "vehicle_b"])
     title = f"{summary.get('scenario', run_dir.name)}, {summary.get('controller', '')}, seed {summary.get('seed', '')}"
+    network = (summary.get("settings") or {}).get("network") or {}
+    centre = junction_centre(run_dir / NET_FILE, network["junctions"][0]) if network.get("file") else (0.0, 0.0)
     return RunRecord(traj=traj, kappa=dict(zip(vehicles["vehicle"], vehicles["kappa"].astype(float))), games=games,
                      outline=read_outline(run_dir / NET_FILE),
                      length=float(model.get("vehicle_length", settings.default_length)),
-                     width=float(model.get("vehicle_width", settings.default_width)), title=title)
+                     width=float(model.get("vehicle_width", settings.default_width)), title=title, centre=centre)
 
 
 def frame_times(traj: pd.DataFrame, settings: AnimationSettings) -> np.ndarray:

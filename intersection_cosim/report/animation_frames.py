@@ -62,13 +62,15 @@ class FrameDrawer:
 
     def _half_view(self, settings) -> float:
         """[m] half the side of the square view around the junction centre."""
-        reach = float(np.nanmax(np.abs(self.run.traj[["x", "y"]].to_numpy(float)))) if len(self.run.traj) else 0.0
+        xy = self.run.traj[["x", "y"]].to_numpy(float) - np.asarray(self.run.centre)
+        reach = float(np.nanmax(np.abs(xy))) if len(self.run.traj) else 0.0
         return max(20.0, min(reach + settings.margin, settings.max_half_view))
 
     def _static(self, half: float) -> None:
         ax, outline = self.ax, self.run.outline
-        ax.set_xlim(-half, half)
-        ax.set_ylim(-half, half)
+        cx, cy = self.run.centre
+        ax.set_xlim(cx - half, cx + half)
+        ax.set_ylim(cy - half, cy + half)
         ax.set_aspect("equal")
         ax.set_facecolor("#e9efe4")
         ax.set_xticks([])
@@ -79,7 +81,8 @@ class FrameDrawer:
             ax.add_patch(Polygon(poly, closed=True, facecolor=ROAD, edgecolor=MARKING, lw=0.6, zorder=1))
         for line in outline.internal:
             ax.plot(line[:, 0], line[:, 1], color=PATH_LINE, lw=0.5, ls=":", zorder=2)
-        ax.text(0.01, 0.01, "x, y: paper frame [m]", transform=ax.transAxes, fontsize=7, color="#555555")
+        frame = "paper frame" if self.run.centre == (0.0, 0.0) else "the net's frame"
+        ax.text(0.01, 0.01, f"x, y: {frame} [m]", transform=ax.transAxes, fontsize=7, color="#555555")
         self.fig.suptitle(self.run.title, x=0.41, y=0.985, fontsize=11)
         cax = self.fig.add_axes((0.86, 0.36, 0.035, 0.50))
         bar = self.fig.colorbar(_scalar_mappable(), cax=cax)

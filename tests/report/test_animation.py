@@ -13,7 +13,7 @@ from PIL import Image
 from intersection_cosim.cli import main
 from intersection_cosim.colors import GAME, UNCONTROLLED, kappa_color
 from intersection_cosim.experiments.run import run_scenario
-from intersection_cosim.report.animation import AnimationSettings, frame_times
+from intersection_cosim.report.animation import AnimationSettings, animate, frame_times
 from intersection_cosim.report.animation_frames import body_corners
 from intersection_cosim.scenario import load_scenario, with_overrides
 
@@ -109,3 +109,28 @@ def test_body_is_length_behind_the_front_bumper_width_across():
     c = body_corners(10.0, -2.0, math.pi / 2, 4.5, 1.8)  # northbound, front bumper at (10, -2)
     assert np.allclose(c, [[9.1, -2.0], [10.9, -2.0], [10.9, -6.5], [9.1, -6.5]])
     assert UNCONTROLLED != kappa_color(0.5)
+
+
+@pytest.mark.slow
+def test_a_run_on_a_net_file_is_drawn_around_its_junction(tmp_path):
+    """On SUMO's cross (its junction far from the origin) the view centres on the managed junction:
+    the road and the controlled vehicles are in the frames, not an empty field."""
+    scn = with_overrides(load_scenario(Path(__file__).resolve().parents[2] / "scenarios" / "cross_high.toml"),
+                         budget_ms=2000.0)
+    scn = dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, duration=40.0, drain=20.0))
+    run_scenario(scn, tmp_path / "run")
+    out = tmp_path / "cross.gif"
+    animate(tmp_path / "run", out, AnimationSettings(max_frames=60))
+    road = (80, 80, 80)  # the lanes' fill (report/animation_frames.py ROAD)
+    with Image.open(out) as im:
+        counts = []
+        for k in range(0, im.n_frames, 10):
+            im.seek(k)
+            counts.append(_pixels(im, road, tol=8))
+        coloured = 0
+        for k in range(im.n_frames):
+            im.seek(k)
+            frame = im.convert("RGB")
+            coloured = max(coloured, sum(_pixels(frame, kappa_color(x)) for x in np.linspace(0.2, 0.8, 7)))
+    assert min(counts) > 40_000  # [px] the roads fill a good part of the 800 x 720 frame
+    assert coloured > 100  # some frame shows a controlled vehicle's body
