@@ -123,6 +123,16 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--gui-delay", type=_non_negative_float, default=50.0, metavar="MS",
                      help="[ms] sumo-gui's pause per SUMO step with --gui (default 50: about real time)")
 
+    _add_sweep(sub)
+    _add_compare(sub)
+    report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
+    report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
+    _add_animate(sub)
+    _add_junctions(sub)
+    return parser
+
+
+def _add_sweep(sub) -> None:
     sweep = sub.add_parser("sweep", help="run a scenario over a grid of kappa values, controllers and seeds")
     sweep.add_argument("scenario", help="scenario file (TOML)")
     sweep.add_argument("--kappa", action="append", metavar="VEHICLE=SPEC",
@@ -132,11 +142,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "--controller is the old spelling)")
     sweep.add_argument("--seeds", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: the scenario's)")
     sweep.add_argument("--out", required=True, help="sweep folder; rerunning the same command skips finished runs")
-    where = sweep.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=_positive_int, help="parallel local runs (default: the number of CPUs)")
-    where.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://host:8786")
-    sweep.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_executor_options(sweep)
 
+
+def _add_compare(sub) -> None:
     compare = sub.add_parser("compare", help="compare controllers over seeds on one or more demand scenarios")
     compare.add_argument("scenario", nargs="+", help="scenario file(s) (TOML), e.g. one per demand level")
     compare.add_argument("--controllers", "--controller", dest="controllers", metavar="K1,K2", default="nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls",
@@ -147,16 +156,15 @@ def build_parser() -> argparse.ArgumentParser:
                          help="[ms] override every run's wall-time budget per control step")
     compare.add_argument("--out", required=True, help="comparison folder; rerunning the same command skips "
                          "finished runs")
-    where = compare.add_mutually_exclusive_group()
+    _add_executor_options(compare)
+
+
+def _add_executor_options(parser) -> None:
+    """Where the runs of a sweep or comparison go: local processes or a Dask cluster."""
+    where = parser.add_mutually_exclusive_group()
     where.add_argument("--workers", type=_positive_int, help="parallel local runs (default: the number of CPUs)")
     where.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://host:8786")
-    compare.add_argument("--no-progress", action="store_true", help="no progress bar")
-
-    report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
-    report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
-    _add_animate(sub)
-    _add_junctions(sub)
-    return parser
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def _add_animate(sub) -> None:

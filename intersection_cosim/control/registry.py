@@ -15,7 +15,8 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from intersection_cosim.control.base import Controller
-from intersection_cosim.control.fcfs import FcfsController, FcfsSettings
+from intersection_cosim.control.fcfs import FcfsController
+from intersection_cosim.control.reservations import FcfsSettings
 from intersection_cosim.control.game import GameController
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.control.sumo_baseline import SumoController
