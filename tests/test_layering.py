@@ -18,8 +18,6 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-import pytest
-
 import intersection_cosim
 
 PACKAGE = "intersection_cosim"

@@ -8,7 +8,6 @@ net's frame (the nearest lane allowing passenger cars, within 1 m).
 
 from __future__ import annotations
 
-import math
 import warnings
 from typing import Any
 
@@ -18,6 +17,7 @@ from sumolib import geomhelper
 from intersection_cosim.errors import InputError
 from intersection_cosim.scenario.model import FlowSpec, KappaDistribution, VehicleSpec
 from intersection_cosim.scenario.network import nearest
+from intersection_cosim.scenario.values import number
 
 VCLASS = "passenger"  # [-] the SUMO vehicle class routes and lanes must allow
 GENERIC_FLOW_KEYS = ("id", "from", "to", "route", "rate", "kappa", "begin", "end", "speed", "lane", "pos",
@@ -87,17 +87,6 @@ def _reject_paper_keys(src: str, field: str, table: dict) -> None:
                              "is for the generated net only; on [network] file give from/to or route (edge ids)")
 
 
-def _number(src: str, field: str, value: Any, *, minimum: float | None = None,
-            maximum: float | None = None) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(src, field, value, "must be a finite number")
-    if minimum is not None and value < minimum:
-        raise InputError(src, field, value, f"must be >= {minimum:g}")
-    if maximum is not None and value > maximum:
-        raise InputError(src, field, value, f"must be <= {maximum:g}")
-    return float(value)
-
-
 def _depart_lane(src: str, field: str, value: Any, edge: sumolib.net.edge.Edge) -> str:
     if isinstance(value, str) and value in DEPART_LANES:
         return value
@@ -122,7 +111,7 @@ def _depart_speed(src: str, field: str, value: Any) -> str:
         return value
     if isinstance(value, str):
         raise InputError(src, field, value, f"must be a speed [m/s] or one of {', '.join(DEPART_SPEEDS)}")
-    return f"{_number(src, field, value, minimum=0.0):g}"
+    return f"{number(src, field, value, minimum=0.0):g}"
 
 
 def _flow_depart_pos(src: str, field: str, table: dict, edge: sumolib.net.edge.Edge) -> float | None:
@@ -130,9 +119,9 @@ def _flow_depart_pos(src: str, field: str, table: dict, edge: sumolib.net.edge.E
         raise InputError(src, f"{field}.distance", table["distance"], "give either pos or distance, not both")
     length = edge.getLength()  # [m]
     if "pos" in table:
-        return _number(src, f"{field}.pos", table["pos"], minimum=0.0, maximum=length)
+        return number(src, f"{field}.pos", table["pos"], minimum=0.0, maximum=length)
     if "distance" in table:  # [m] before the end of the first edge (its junction)
-        return length - _number(src, f"{field}.distance", table["distance"], minimum=0.0, maximum=length)
+        return length - number(src, f"{field}.distance", table["distance"], minimum=0.0, maximum=length)
     return None
 
 
@@ -152,7 +141,7 @@ def generic_flow(src: str, i: int, table: dict, net: sumolib.net.Net,
     fid = table.get("id", f"{route[0]}_{route[-1]}_{i}")
     if not isinstance(fid, str) or not fid or any(ch.isspace() for ch in fid):
         raise InputError(src, f"{field}.id", fid, "must be a non-empty string without spaces")
-    return FlowSpec(id=fid, approach="", movement="", rate=_number(src, f"{field}.rate", table["rate"], minimum=0.0),
+    return FlowSpec(id=fid, approach="", movement="", rate=number(src, f"{field}.rate", table["rate"], minimum=0.0),
                     kappa=kappa, begin=window[0], end=window[1], route=route,
                     depart_lane=_depart_lane(src, f"{field}.lane", table.get("lane", "best"), first),
                     depart_speed=_depart_speed(src, f"{field}.speed", table.get("speed", "max")),
@@ -187,7 +176,7 @@ def _place(src: str, field: str, net: sumolib.net.Net, table: dict) -> tuple[sum
             raise InputError(src, f"{field}.{key}", None, "is required when position is not given")
     edge = _edge(src, f"{field}.edge", net, table["edge"])
     lane = _lane(src, f"{field}.lane", table.get("lane", 0), edge)
-    return lane, _number(src, f"{field}.pos", table["pos"], minimum=0.0, maximum=lane.getLength())
+    return lane, number(src, f"{field}.pos", table["pos"], minimum=0.0, maximum=lane.getLength())
 
 
 def lane_point(lane: sumolib.net.lane.Lane, pos: float) -> tuple[float, float]:

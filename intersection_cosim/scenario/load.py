@@ -7,7 +7,6 @@ written anywhere while loading (the net used for placement comes from the per-us
 from __future__ import annotations
 
 import dataclasses
-import math
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from intersection_cosim.network.cache import cached_net
 from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath, load_paths
 from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, IntersectionSpec, exit_arm
+from intersection_cosim.scenario.values import number
 from intersection_cosim.scenario.demand import check_generic_spacing, check_vehicle_keys, generic_flow, generic_vehicle
 from intersection_cosim.scenario.model import (
     ControllerSettings,
@@ -41,17 +41,6 @@ VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "e
 FLOW_KEYS = ("id", "approach", "movement", "from", "to", "route", "rate", "kappa", "begin", "end", "lane", "speed",
              "distance")
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error
-
-
-def _number(src: str, field: str, value: Any, *, minimum: float | None = None,
-            maximum: float | None = None) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(src, field, value, "must be a finite number")
-    if minimum is not None and value < minimum:
-        raise InputError(src, field, value, f"must be >= {minimum:g}")
-    if maximum is not None and value > maximum:
-        raise InputError(src, field, value, f"must be <= {maximum:g}")
-    return float(value)
 
 
 def _choice(src: str, field: str, value: Any, options: tuple[str, ...]) -> str:
@@ -102,12 +91,12 @@ def _vehicle_id(src: str, i: int, table: Any) -> str:
 
 def _motion(src: str, field: str, table: dict) -> tuple[float, float, float, float | None]:
     """A vehicle's (speed [m/s], kappa [-], depart [s], desired_speed [m/s] or None)."""
-    speed = _number(src, f"{field}.speed", table["speed"], minimum=0.0)
-    kappa = _number(src, f"{field}.kappa", table["kappa"], minimum=0.0, maximum=1.0)
-    depart = _number(src, f"{field}.depart", table.get("depart", 0.0), minimum=0.0)
+    speed = number(src, f"{field}.speed", table["speed"], minimum=0.0)
+    kappa = number(src, f"{field}.kappa", table["kappa"], minimum=0.0, maximum=1.0)
+    depart = number(src, f"{field}.depart", table.get("depart", 0.0), minimum=0.0)
     desired = table.get("desired_speed")
     if desired is not None:
-        desired = _number(src, f"{field}.desired_speed", desired, minimum=0.0)
+        desired = number(src, f"{field}.desired_speed", desired, minimum=0.0)
         if desired <= 0.0:
             raise InputError(src, f"{field}.desired_speed", desired, "must be > 0")
         if speed > desired:
@@ -162,7 +151,7 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
             raise InputError(src, f"{field}.exit_lane", exit_lane,
                              f"a {movement} turn from the {lane} lane can exit on {', '.join(LANE_USE[lane][movement])}")
         path = paths[pid]
-        distance = _number(src, f"{field}.distance", table["distance"], maximum=path.s_stop)
+        distance = number(src, f"{field}.distance", table["distance"], maximum=path.s_stop)
         s0 = path.s_stop - distance
         if s0 > path.s_exit:
             raise InputError(src, f"{field}.distance", distance, "places the vehicle beyond the junction")
@@ -178,13 +167,13 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
 
 def _kappa_distribution(src: str, field: str, value: Any) -> KappaDistribution:
     if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return KappaDistribution(dist="fixed", value=_number(src, field, value, minimum=0.0, maximum=1.0))
+        return KappaDistribution(dist="fixed", value=number(src, field, value, minimum=0.0, maximum=1.0))
     if not isinstance(value, dict):
         raise InputError(src, field, value, 'must be a number in [0, 1] or a table like {dist = "uniform", low = 0.2, high = 0.8}')
     dist = _choice(src, f"{field}.dist", value.get("dist"), ("fixed", "uniform", "normal"))
     known = {"fixed": ("dist", "value"), "uniform": ("dist", "low", "high"), "normal": ("dist", "mean", "std")}[dist]
     _unknown_keys(src, field, value, known)
-    nums = {k: _number(src, f"{field}.{k}", v, minimum=0.0, maximum=1.0 if k != "std" else None)
+    nums = {k: number(src, f"{field}.{k}", v, minimum=0.0, maximum=1.0 if k != "std" else None)
             for k, v in value.items() if k != "dist"}
     if dist == "uniform" and not nums.get("low", 0.0) <= nums.get("high", 1.0):
         raise InputError(src, f"{field}.high", nums.get("high"), "must be >= low")
@@ -222,8 +211,8 @@ def _paper_movement(src: str, field: str, table: dict) -> tuple[str, str]:
 
 def _flow_window(src: str, field: str, table: dict) -> tuple[float, float]:
     """A flow's (begin, end) [s]."""
-    begin = _number(src, f"{field}.begin", table.get("begin", 0.0), minimum=0.0)
-    end = _number(src, f"{field}.end", table.get("end", 3600.0), minimum=0.0)
+    begin = number(src, f"{field}.begin", table.get("begin", 0.0), minimum=0.0)
+    end = number(src, f"{field}.end", table.get("end", 3600.0), minimum=0.0)
     if end <= begin:
         raise InputError(src, f"{field}.end", end, "must be > begin")
     return begin, end
@@ -266,11 +255,11 @@ def _flow(src: str, i: int, table: Any) -> FlowSpec:
     distance = table.get("distance")
     return FlowSpec(
         id=fid, approach=approach, movement=movement,
-        rate=_number(src, f"{field}.rate", table["rate"], minimum=0.0),
+        rate=number(src, f"{field}.rate", table["rate"], minimum=0.0),
         kappa=_kappa_distribution(src, f"{field}.kappa", table["kappa"]),
         begin=begin, end=end, lane=lane,
-        speed=_number(src, f"{field}.speed", table.get("speed", 10.0), minimum=0.0),
-        distance=None if distance is None else _number(src, f"{field}.distance", distance, minimum=0.0))
+        speed=number(src, f"{field}.speed", table.get("speed", 10.0), minimum=0.0),
+        distance=None if distance is None else number(src, f"{field}.distance", distance, minimum=0.0))
 
 
 def _check_spacing(src: str, vehicles: list[VehicleSpec], paths: dict[str, MovementPath],

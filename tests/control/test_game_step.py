@@ -8,7 +8,7 @@ import pytest
 
 from intersection_cosim.control import solo as solo_module
 from intersection_cosim.network.movements import paper_movements
-from intersection_cosim.control.base import ControlContext, World
+from intersection_cosim.control.base import ControlContext
 from intersection_cosim.control.game import GameController
 from intersection_cosim.control.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.players import leader_trajectory
@@ -16,6 +16,7 @@ from intersection_cosim.control.relations import step_relations
 from intersection_cosim.control.safety import occupancy
 from intersection_cosim.control.settings import GameControllerSettings, PolicySettings, SafetySettings
 from intersection_cosim.models.settings import ModelSettings
+from tests.control.conftest import make_world
 
 LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
 STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
@@ -23,15 +24,7 @@ STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left t
 
 def _world(paths, t, vehicles):
     """vehicles: (id, path id, s [m], v [m/s])."""
-    ids = [v[0] for v in vehicles]
-    pids = [v[1] for v in vehicles]
-    s = np.array([v[2] for v in vehicles], float)
-    xy = np.array([paths[p].point_at(si) for p, si in zip(pids, s)])
-    n = len(ids)
-    return World(time=t, ids=ids, path_ids=pids, s=s, v=np.array([v[3] for v in vehicles], float),
-                 a=np.zeros(n), x=xy[:, 0], y=xy[:, 1], heading=np.zeros(n), kappa=np.full(n, 0.5),
-                 role=["ready"] * n, lanes=[paths[p].lanes[0] for p in pids],
-                 exit_choices={i: (paths[p].exit_lane,) for i, p in zip(ids, pids)})
+    return make_world(paths, t, vehicles)
 
 
 def _nash_controller(paths, net_file, model: ModelSettings | None = None,
@@ -335,7 +328,7 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(path
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert d.games == 1
     plan_a, plan_b = controller.memory.plans["A"], controller.memory.plans["B"]
-    (in_a, out_a), (in_b, out_b) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
+    (in_a, out_a), (in_b, _) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
     assert 12.0 / 7.0 < 8.0 / 4.0 and in_a < in_b  # TCP order B, A; the game's order A, B
     assert in_b < out_a + controller.settings.safety.safety_time_gap  # too close: the filter must order them
     assert d.accel["A"] == pytest.approx(float(plan_a.accelerations[0]))  # A goes as the game says

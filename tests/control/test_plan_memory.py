@@ -1,7 +1,6 @@
 """PlanMemory as a unit: applied plans, shifting, warm starts with typed keys."""
 
 import numpy as np
-import pytest
 
 from intersection_cosim.control.plan_memory import GameKey, PlanMemory, SoloKey
 from intersection_cosim.games.problem import Plan
