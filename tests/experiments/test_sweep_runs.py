@@ -142,7 +142,10 @@ def test_ctrl_c_stops_cleanly_and_keeps_finished_runs(tmp_path):
     # runs of SUMO's fast baseline it could finish first)
     cmd = [sys.executable, "-m", "intersection_cosim", "sweep", CASE1A, "--kappa", "V1=0.1:0.9:0.05", "--seeds", "1",
            "--controllers", "nash", "--out", str(out), "--workers", "2"]
-    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Ctrl-C as in a terminal: a test run started in the background of a non-interactive shell
+    # inherits SIGINT ignored, and Python then installs no KeyboardInterrupt handler
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         wait_for_a_finished_run(out, proc)
         os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
