@@ -182,27 +182,13 @@ def _add_junctions(sub) -> None:
                            help="every junction, not only intersections (3 or more arms, or a traffic light)")
 
 
-def _expand_net_path(text: str) -> str:
-    """``text`` with ``~`` and environment variables expanded (os.path.expandvars); with SUMO_HOME
-    unset, ``$SUMO_HOME`` is the eclipse-sumo package's."""
-    import os
-
-    if "SUMO_HOME" not in os.environ:
-        try:
-            import sumo
-        except ImportError:
-            pass
-        else:
-            text = text.replace("${SUMO_HOME}", sumo.SUMO_HOME).replace("$SUMO_HOME", sumo.SUMO_HOME)
-    return os.path.expanduser(os.path.expandvars(text))
-
-
 def _cmd_junctions(args) -> int:
     import pandas as pd
 
     from intersection_cosim.network.junction_net import junction_table
+    from intersection_cosim.scenario.network import resolve_path
 
-    table = junction_table(_expand_net_path(args.net), all_junctions=args.all)
+    table = junction_table(resolve_path("junctions", "net", args.net, Path.cwd()), all_junctions=args.all)
     with pd.option_context("display.max_rows", None, "display.max_columns", None, "display.width", 200):
         print(table.to_string(index=False) if len(table) else "no junctions")
     return 0

@@ -32,6 +32,7 @@ from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import movement_conflicts
 from intersection_cosim.network.junction_net import load_movements
+from intersection_cosim.network.outline import junction_centre
 from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.movements import Movements, paper_movements
 from intersection_cosim.network.paths import MovementPath
@@ -266,6 +267,8 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
                                     control_period=scn.controller.period, settings=scn.controller_settings,
                                     etm=scn.controller.etm))
     scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
+    if gui is not None and not scn.network.generated:  # look at the managed junction, not the origin
+        gui = dataclasses.replace(gui, centre=junction_centre(inputs.net, scn.network.junctions[0]))
     view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
     observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
     generic = {} if scn.network.generated else dict(lane_change_mode=LANE_CHANGE_MODE_STRATEGIC,

@@ -30,9 +30,11 @@ VAR = re.compile(r"\$(\w+)|\$\{(\w+)\}")
 
 
 def sumo_home() -> str:
-    """``$SUMO_HOME`` if set, else the eclipse-sumo package's SUMO_HOME."""
+    """``$SUMO_HOME`` if it names a SUMO installation (it has ``tools/``), else the eclipse-sumo
+    package's SUMO_HOME. (Importing libsumo sets the variable to its data-only folder, which has
+    no nets or tools: a scenario must not resolve against that.)"""
     env = os.environ.get("SUMO_HOME")
-    if env:
+    if env and os.path.isdir(os.path.join(env, "tools")):
         return env
     import sumo
 

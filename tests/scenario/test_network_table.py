@@ -233,11 +233,16 @@ def test_the_net_file_scenarios_route_every_flow_through_their_junction(path):
         assert f.route and incoming & set(f.route) and outgoing & set(f.route), f.id
 
 
-def test_sumo_home_is_the_package_home_when_unset(monkeypatch):
+def test_sumo_home_is_the_package_home_unless_the_variable_names_a_sumo_installation(monkeypatch, tmp_path):
     from intersection_cosim.scenario.network import sumo_home
 
     monkeypatch.delenv("SUMO_HOME", raising=False)
     assert sumo_home() == str(sumo.SUMO_HOME)
-    monkeypatch.setenv("SUMO_HOME", "/opt/sumo")
-    assert sumo_home() == "/opt/sumo"
+    (tmp_path / "sumo" / "tools").mkdir(parents=True)
+    monkeypatch.setenv("SUMO_HOME", str(tmp_path / "sumo"))
+    assert sumo_home() == str(tmp_path / "sumo")
+    # importing libsumo sets SUMO_HOME to its data-only folder (no tools/, no nets): not a home
+    (tmp_path / "sumo_data" / "data").mkdir(parents=True)
+    monkeypatch.setenv("SUMO_HOME", str(tmp_path / "sumo_data"))
+    assert sumo_home() == str(sumo.SUMO_HOME)
     assert os.path.isfile(os.path.join(str(sumo.SUMO_HOME), "bin", "sumo"))
