@@ -229,7 +229,7 @@ class SumoSimulation:
         """A vehicle of the user's own route file: kappa from its ``kappa`` parameter (else 0.5),
         its route from SUMO, controlled like the scenario's vehicles."""
         veh = self.api.vehicle
-        kappa = veh.getParameter(vid, "kappa") or veh.getParameter(vid, "device.kappa") or "0.5"
+        kappa = veh.getParameter(vid, "kappa") or "0.5"  # a <param key="kappa"> of the vehicle, else moderate
         info = VehicleInfo("", "", "", float(kappa), None, self.adopt_controlled,
                            route=frozenset(veh.getRoute(vid)))
         self.vehicles[vid] = info

@@ -50,3 +50,30 @@ def test_the_lights_are_off_for_the_controllers_and_on_for_sumo_tls(tmp_path):
           for kind in ("sumo-tls", "sumo-priority", "nash")}
     assert tt["sumo-tls"] > tt["sumo-priority"] + 5.0
     assert tt["sumo-tls"] > tt["nash"] + 5.0
+
+
+def test_vehicles_of_the_users_own_route_file_are_controlled_with_their_kappa(tmp_path):
+    """A scenario whose only demand is the user's route file: its vehicles are adopted on
+    departure, taken over at the managed junction with the kappa of their ``kappa`` parameter
+    (0.5 without one) and all arrive."""
+    routes = tmp_path / "mine.rou.xml"
+    routes.write_text(
+        '<routes>\n'
+        '  <vType id="car" length="4.5" width="1.8"/>\n'
+        '  <vehicle id="bold" type="car" depart="0" departSpeed="max"><param key="kappa" value="0.9"/>'
+        '<route edges="1fi 1si 2o 2fo"/></vehicle>\n'
+        '  <vehicle id="plain" type="car" depart="1" departSpeed="max"><route edges="3fi 3si 4o 4fo"/></vehicle>\n'
+        '  <vehicle id="third" type="car" depart="2" departSpeed="max"><route edges="2fi 2si 3o 3fo"/></vehicle>\n'
+        '</routes>\n')
+    scenario = tmp_path / "own.toml"
+    scenario.write_text('[scenario]\nname = "own"\nduration = 30.0\ndrain = 60.0\n\n[controller]\nkind = "nash"\n\n'
+                        '[network]\nfile = "$SUMO_HOME/tools/game/cross/cross.net.xml"\njunctions = ["0"]\n'
+                        f'routes = "{routes}"\n')
+    summary = run_scenario(load_scenario(scenario), tmp_path / "run")
+    vehicles = pd.read_csv(tmp_path / "run" / "vehicles.csv").set_index("vehicle")
+    traj = pd.read_csv(tmp_path / "run" / "trajectories.csv")
+    assert summary["counts"]["collisions"] == 0 and summary["counts"]["arrived"] == 3
+    assert vehicles.loc["bold", "kappa"] == 0.9 and vehicles.loc["plain", "kappa"] == 0.5
+    assert set(vehicles.index) == {"bold", "plain", "third"} and (vehicles["approach"] != "").all()
+    commanded = traj[traj["role"] != "outside"]
+    assert set(commanded["vehicle"]) == {"bold", "plain", "third"} and commanded["accel_cmd"].notna().all()
