@@ -65,6 +65,7 @@ class RunRecord:
     width: float  # [m]
     title: str
     centre: tuple[float, float] = (0.0, 0.0)  # [m] the view's centre: the (first) managed junction
+    reach: float | None = None  # [m] how far out the controller drives (a net file's control range; None: the settings')
 
 
 def check_run_dir(run_dir: str | Path) -> Path:
@@ -105,11 +106,14 @@ def read_run(run_dir: Path, settings: AnimationSettings) -> RunRecord:
         games = pd.DataFrame(columns=["time", "vehicle_a", "vehicle_b"])
     title = f"{summary.get('scenario', run_dir.name)}, {summary.get('controller', '')}, seed {summary.get('seed', '')}"
     network = (summary.get("settings") or {}).get("network") or {}
-    centre = junction_centre(run_dir / NET_FILE, network["junctions"][0]) if network.get("file") else (0.0, 0.0)
+    on_file = bool(network.get("file"))
+    centre = junction_centre(run_dir / NET_FILE, network["junctions"][0]) if on_file else (0.0, 0.0)
+    reach = float(network.get("control_range", settings.max_half_view)) if on_file else None
     return RunRecord(traj=traj, kappa=dict(zip(vehicles["vehicle"], vehicles["kappa"].astype(float))), games=games,
                      outline=read_outline(run_dir / NET_FILE),
                      length=float(model.get("vehicle_length", settings.default_length)),
-                     width=float(model.get("vehicle_width", settings.default_width)), title=title, centre=centre)
+                     width=float(model.get("vehicle_width", settings.default_width)), title=title, centre=centre,
+                     reach=reach)
 
 
 def frame_times(traj: pd.DataFrame, settings: AnimationSettings) -> np.ndarray:

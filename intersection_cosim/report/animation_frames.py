@@ -64,7 +64,8 @@ class FrameDrawer:
         """[m] half the side of the square view around the junction centre."""
         xy = self.run.traj[["x", "y"]].to_numpy(float) - np.asarray(self.run.centre)
         reach = float(np.nanmax(np.abs(xy))) if len(self.run.traj) else 0.0
-        return max(20.0, min(reach + settings.margin, settings.max_half_view))
+        limit = settings.max_half_view if self.run.reach is None else self.run.reach  # [m]
+        return max(20.0, min(reach + settings.margin, limit))
 
     def _static(self, half: float) -> None:
         ax, outline = self.ax, self.run.outline
