@@ -132,5 +132,5 @@ def test_a_run_on_a_net_file_is_drawn_around_its_junction(tmp_path):
             im.seek(k)
             frame = im.convert("RGB")
             coloured = max(coloured, sum(_pixels(frame, kappa_color(x)) for x in np.linspace(0.2, 0.8, 7)))
-    assert min(counts) > 40_000  # [px] the roads fill a good part of the 800 x 720 frame
+    assert min(counts) > 15_000  # [px] the roads cross the 800 x 720 frame (an empty field has none)
     assert coloured > 100  # some frame shows a controlled vehicle's body
