@@ -123,6 +123,8 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     past ``zone_out`` of the conflict table, for confluence pairs the point plus a vehicle
     length and half a width), so the safety filter guards it that long; it carries J_lat and
     may play a game only while neither is more than ``conflict_clearance`` past the point.
+    Vectorised over the ETM's pairs: the cost of a step grows with the pairs that matter, not
+    with a Python loop over every pair.
     """
     i, j = all_pairs(len(rows))
     keep = rows.vehicle[i] != rows.vehicle[j]
@@ -131,59 +133,63 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
                          pairs=(i[keep], j[keep]))
     s_now = (world.s[k_of[risk.i]], world.s[k_of[risk.j]])
     d = (risk.s_cp_i - s_now[0], risk.s_cp_j - s_now[1])
-    leaders: dict[int, Leader] = {}
-    lateral: list[Lateral] = []
-    for m in range(len(risk.i)):
-        if risk.leader_follower[m]:
-            _add_leader(leaders, risk, m, d, k_of, model.conflict_clearance)
-        elif risk.kind[m] in (KIND_CROSS, KIND_CONFLUENCE):
-            lat = _lateral(risk, m, d, s_now, k_of, active, table, pidx, model, etm)
-            if lat is not None:
-                lateral.append(lat)
+    leaders = _leaders(risk, d, k_of, model.conflict_clearance)
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm)
     return leaders, lateral
 
 
-def _add_leader(leaders: dict[int, Leader], risk, m: int, d, k_of: np.ndarray, clear: float) -> None:
-    """Record pair ``m`` (a leader-follower pair of the ETM) if it is the follower's nearest."""
-    ri, rj = int(risk.i[m]), int(risk.j[m])
-    d_i, d_j = d[0][m], d[1][m]
-    if min(d_i, d_j) < -clear and risk.kind[m] != KIND_CONFLUENCE:
-        return  # the leader has left the shared stretch
-    lead, follow = (ri, rj) if d_i < d_j else (rj, ri)
-    s_cp_f = risk.s_cp_i[m] if follow == ri else risk.s_cp_j[m]
-    s_cp_l = risk.s_cp_j[m] if follow == ri else risk.s_cp_i[m]
-    gap = abs(d_i - d_j)
-    if follow in leaders and leaders[follow].gap <= gap:
-        return
+def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
+    """Each follower row's nearest leader among the ETM's leader-follower pairs (the first such
+    pair in the ETM's order on equal gaps), keyed in the order the followers first appear.
+
+    A following pair whose leader has left the shared stretch (more than ``clear`` [m] past its
+    end) gives no leader."""
+    d_i, d_j = d
+    gone = (np.minimum(d_i, d_j) < -clear) & (risk.kind != KIND_CONFLUENCE)
+    m = np.flatnonzero(risk.leader_follower & ~gone)
+    if len(m) == 0:
+        return {}
+    i_leads = d_i[m] < d_j[m]
+    follow = np.where(i_leads, risk.j[m], risk.i[m])
+    lead = np.where(i_leads, risk.i[m], risk.j[m])
+    s_cp_f = np.where(i_leads, risk.s_cp_j[m], risk.s_cp_i[m])  # [m] the point on the follower's path
+    s_cp_l = np.where(i_leads, risk.s_cp_i[m], risk.s_cp_j[m])  # [m] ... on the leader's path
+    gap = np.abs(d_i[m] - d_j[m])  # [m]
     # two paths from one approach lane that part (s_cp = end of the shared stretch, where the
     # centre lines are a width apart): once the leader's rear is past it, the follower may draw
     # level on its own branch (Case 2's V3 beside V4)
-    until = s_cp_l + clear if risk.kind[m] == KIND_FOLLOWING else math.inf
-    leaders[follow] = Leader(int(k_of[lead]), float(s_cp_f - s_cp_l), float(gap), float(until))
+    until = np.where(risk.kind[m] == KIND_FOLLOWING, s_cp_l + clear, math.inf)  # [m]
+    by_gap = np.lexsort((np.arange(len(m)), gap, follow))  # per follower: smallest gap, then first
+    firsts = by_gap[np.r_[True, follow[by_gap][1:] != follow[by_gap][:-1]]]  # by follower
+    _, first_seen = np.unique(follow, return_index=True)  # by follower too
+    firsts = firsts[np.argsort(first_seen)]
+    offset = (s_cp_f - s_cp_l)[firsts]
+    return {int(f): Leader(int(v), float(o), float(g), float(u)) for f, v, o, g, u in zip(
+        follow[firsts], k_of[lead[firsts]], offset, gap[firsts], until[firsts])}
 
 
-def _lateral(risk, m: int, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
-             pidx: np.ndarray, model: ModelSettings, etm: bool) -> Lateral | None:
-    """Pair ``m`` as a lateral pair, or None when neither is controlled or one has cleared it."""
-    ri, rj = int(risk.i[m]), int(risk.j[m])
-    both = k_of[ri] in active and k_of[rj] in active
-    if not both and k_of[ri] not in active and k_of[rj] not in active:
-        return None
-    s_i, s_j = float(risk.s_cp_i[m]), float(risk.s_cp_j[m])
-    if risk.kind[m] == KIND_CROSS:
-        kind = "cross"
-        p_i, p_j = pidx[ri], pidx[rj]
-        zone_i = (float(table.zone_in[p_i, p_j]), float(table.zone_out[p_i, p_j]))
-        zone_j = (float(table.zone_in[p_j, p_i]), float(table.zone_out[p_j, p_i]))
-    else:
-        kind = "confluence"
-        length, width = model.vehicle_length, model.vehicle_width
-        zone_i, zone_j = point_zone(s_i, length, width), point_zone(s_j, length, width)
-    if s_now[0][m] > zone_i[1] or s_now[1][m] > zone_j[1]:
-        return None  # one of them has cleared the crossing
-    # a vehicle that has left the junction (front past its exit, handed back to SUMO) may still
-    # have its rear in the crossing: guarded, no game
+def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
+              pidx: np.ndarray, model: ModelSettings, etm: bool) -> list[Lateral]:
+    """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
+    whose two vehicles have not cleared the crossing (in the ETM's order)."""
+    row_active = np.isin(k_of, np.fromiter(active, dtype=np.intp, count=len(active)))
+    a_i, a_j = row_active[risk.i], row_active[risk.j]
+    lateral_kind = ((risk.kind == KIND_CROSS) | (risk.kind == KIND_CONFLUENCE)) & ~risk.leader_follower
+    m = np.flatnonzero(lateral_kind & (a_i | a_j))
+    ri, rj = risk.i[m], risk.j[m]
+    s_i, s_j = risk.s_cp_i[m], risk.s_cp_j[m]  # [m]
+    cross = risk.kind[m] == KIND_CROSS
+    p_i, p_j = pidx[ri], pidx[rj]
+    length, width = model.vehicle_length, model.vehicle_width
+    conf_i, conf_j = point_zone(s_i, length, width), point_zone(s_j, length, width)
+    zone_i = (np.where(cross, table.zone_in[p_i, p_j], conf_i[0]), np.where(cross, table.zone_out[p_i, p_j], conf_i[1]))
+    zone_j = (np.where(cross, table.zone_in[p_j, p_i], conf_j[0]), np.where(cross, table.zone_out[p_j, p_i], conf_j[1]))
+    # one of them has cleared the crossing: dropped. A vehicle that has left the junction (front
+    # past its exit, handed back to SUMO) may still have its rear in the crossing: guarded, no game
+    kept = ~((s_now[0][m] > zone_i[1]) | (s_now[1][m] > zone_j[1]))
     clear = model.conflict_clearance
-    live = both and not (d[0][m] < -clear or d[1][m] < -clear)
-    play = live and (bool(risk.trigger[m]) or not etm)
-    return Lateral(ri, rj, kind, s_i, s_j, live, play, zone_i, zone_j)
+    live = a_i[m] & a_j[m] & ~((d[0][m] < -clear) | (d[1][m] < -clear))
+    play = live & (risk.trigger[m] | (not etm))
+    cols = [x[kept].tolist() for x in (ri, rj, cross, s_i, s_j, live, play, *zone_i, *zone_j)]
+    return [Lateral(a, b, "cross" if c else "confluence", si, sj, lv, pl, (zi0, zi1), (zj0, zj1))
+            for a, b, c, si, sj, lv, pl, zi0, zi1, zj0, zj1 in zip(*cols)]
