@@ -8,6 +8,7 @@ the safety filter) reads and never changes.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Mapping, NamedTuple
@@ -62,19 +63,60 @@ class Lateral(NamedTuple):
 
 
 @dataclass(frozen=True)
+class LateralPairs:
+    """The step's lateral pairs as columns, one entry per pair in the ETM's order (what the
+    step's consumers select from with numpy; :meth:`at` gives one as a :class:`Lateral`)."""
+
+    ri: np.ndarray  # (L,) row of the first vehicle
+    rj: np.ndarray  # (L,) row of the second
+    cross: np.ndarray  # (L,) bool: a cross pair (else a confluence pair)
+    s_i: np.ndarray  # (L,) [m] conflict point on row ri's path
+    s_j: np.ndarray  # (L,) [m] ... on row rj's path
+    live: np.ndarray  # (L,) bool, as Lateral.live
+    play: np.ndarray  # (L,) bool, as Lateral.play
+    zone_i: np.ndarray  # (L, 2) [m] as Lateral.zone_i
+    zone_j: np.ndarray  # (L, 2) [m] as Lateral.zone_j
+
+    def __len__(self) -> int:
+        return len(self.ri)
+
+    def at(self, m: int) -> Lateral:
+        """Pair ``m`` as a :class:`Lateral` (Python scalars)."""
+        return Lateral(int(self.ri[m]), int(self.rj[m]), "cross" if self.cross[m] else "confluence",
+                       float(self.s_i[m]), float(self.s_j[m]), bool(self.live[m]), bool(self.play[m]),
+                       (float(self.zone_i[m, 0]), float(self.zone_i[m, 1])),
+                       (float(self.zone_j[m, 0]), float(self.zone_j[m, 1])))
+
+
+@dataclass(frozen=True)
 class Relations:
     """Everything of one step that depends on the vehicles' positions relative to each other."""
 
     rows: Rows
     leaders: Mapping[int, Leader]  # row -> its nearest leader
-    lateral: tuple[Lateral, ...]
+    pairs: LateralPairs  # the lateral pairs as columns
     row_of: Mapping[tuple[int, str], int]  # (World index, exit lane) -> row
+
+    @functools.cached_property
+    def lateral(self) -> tuple[Lateral, ...]:
+        """The lateral pairs, one :class:`Lateral` each (built on first use)."""
+        p = self.pairs
+        cols = [x.tolist() for x in (p.ri, p.rj, p.cross, p.s_i, p.s_j, p.live, p.play)]
+        zones = [list(map(tuple, z.tolist())) for z in (p.zone_i, p.zone_j)]
+        return tuple(Lateral(a, b, "cross" if c else "confluence", si, sj, lv, pl, zi, zj)
+                     for a, b, c, si, sj, lv, pl, zi, zj in zip(*cols, *zones))
+
+    def pair_vehicles(self) -> tuple[np.ndarray, np.ndarray]:
+        """(L,), (L,): World indices (lower, higher) of each lateral pair's two vehicles."""
+        vehicle = self.rows.vehicle
+        a, b = vehicle[self.pairs.ri], vehicle[self.pairs.rj]
+        return np.minimum(a, b), np.maximum(a, b)
 
     def triggered_pairs(self) -> frozenset[tuple[int, int]]:
         """(a, b) with a < b, World indices of the vehicle pairs that play a game this step."""
-        vehicle = self.rows.vehicle
-        return frozenset(tuple(sorted((int(vehicle[lat.ri]), int(vehicle[lat.rj]))))
-                         for lat in self.lateral if lat.play)
+        lo, hi = self.pair_vehicles()
+        play = self.pairs.play
+        return frozenset(zip(lo[play].tolist(), hi[play].tolist()))
 
     def leader_of(self, k: int, option: str) -> Leader | None:
         return self.leaders.get(self.row_of[(k, option)])
@@ -112,11 +154,11 @@ def step_relations(world: World, active: set[int], movements: Movements, table: 
     rows = build_rows(world, active, movements, table, held, lane_choice_range)
     leaders, lateral = _pair_relations(world, rows, active, table, model, etm)
     row_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
-    return Relations(rows, leaders, tuple(lateral), row_of)
+    return Relations(rows, leaders, lateral, row_of)
 
 
 def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictTable, model: ModelSettings,
-                    etm: bool) -> tuple[dict[int, Leader], list[Lateral]]:
+                    etm: bool) -> tuple[dict[int, Leader], LateralPairs]:
     """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM.
 
     A lateral pair stays in the list until one of the two has cleared the crossing (its front
@@ -169,7 +211,7 @@ def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
 
 
 def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
-              pidx: np.ndarray, model: ModelSettings, etm: bool) -> list[Lateral]:
+              pidx: np.ndarray, model: ModelSettings, etm: bool) -> LateralPairs:
     """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
     whose two vehicles have not cleared the crossing (in the ETM's order)."""
     row_active = np.isin(k_of, np.fromiter(active, dtype=np.intp, count=len(active)))
@@ -190,6 +232,5 @@ def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: Conflic
     clear = model.conflict_clearance
     live = a_i[m] & a_j[m] & ~((d[0][m] < -clear) | (d[1][m] < -clear))
     play = live & (risk.trigger[m] | (not etm))
-    cols = [x[kept].tolist() for x in (ri, rj, cross, s_i, s_j, live, play, *zone_i, *zone_j)]
-    return [Lateral(a, b, "cross" if c else "confluence", si, sj, lv, pl, (zi0, zi1), (zj0, zj1))
-            for a, b, c, si, sj, lv, pl, zi0, zi1, zj0, zj1 in zip(*cols)]
+    return LateralPairs(ri[kept], rj[kept], cross[kept], s_i[kept], s_j[kept], live[kept], play[kept],
+                        np.stack(zone_i, axis=1)[kept], np.stack(zone_j, axis=1)[kept])

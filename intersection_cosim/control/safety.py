@@ -164,7 +164,8 @@ class SafetyFilter:
         leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
         plans = dict(plans)
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
-        guarded = [lat for lat in relations.lateral if chosen[lat.ri] and chosen[lat.rj]]
+        pairs, on = relations.pairs, np.array(chosen, bool)
+        guarded = np.flatnonzero(on[pairs.ri] & on[pairs.rj]) if len(pairs) else np.zeros(0, np.intp)
         for _pass in range(2):
             for vid in clear:
                 if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:
@@ -172,22 +173,21 @@ class SafetyFilter:
             for vid, limit in cap.items():
                 if vid in plans and limit < float(plans[vid].accelerations[0]):
                     plans[vid] = braking_plan(plans[vid], max(limit, self.problem.a_min))
-            close = self._maybe_close(world, relations, guarded, plans)
-            for lat in (lat for lat, c in zip(guarded, close) if c):
-                self._guard(world, relations, lat, plans, cap, clear)
+            for m in guarded[self._maybe_close(world, relations, guarded, plans)]:
+                self._guard(world, relations, pairs.at(m), plans, cap, clear)
         return self._enforce(decisions, cap, leader_cap, clear)
 
-    def _maybe_close(self, world: World, relations: Relations, guarded: list[Lateral],
+    def _maybe_close(self, world: World, relations: Relations, guarded: np.ndarray,
                      plans: Mapping[str, Plan]) -> np.ndarray:
-        """(len(guarded),) bool: False where :meth:`_guard` would find at once that the plans
+        """(len(guarded),) bool for the lateral pairs ``guarded`` (indices into
+        ``relations.pairs``): False where :meth:`_guard` would find at once that the plans
         keep the crossing clear (it does nothing then), computed for all pairs together with
         :func:`occupancy_times`; True where it must look (also for a pair with a plan missing or
         a plan whose positions go backwards, which it checks itself)."""
-        if not guarded:
+        if not len(guarded):
             return np.zeros(0, bool)
-        vehicle = relations.rows.vehicle
-        ki = vehicle[np.fromiter((lat.ri for lat in guarded), np.intp, len(guarded))]
-        kj = vehicle[np.fromiter((lat.rj for lat in guarded), np.intp, len(guarded))]
+        pairs, vehicle = relations.pairs, relations.rows.vehicle
+        ki, kj = vehicle[pairs.ri[guarded]], vehicle[pairs.rj[guarded]]
         ks = np.unique(np.concatenate([ki, kj]))
         own = [self._plan_of(world, int(k), plans) for k in ks]
         width = 1 + max((len(p.positions) for p in own if p is not None), default=1)
@@ -198,9 +198,9 @@ class SafetyFilter:
             if p is not None and bool(np.all(np.diff(p.positions) >= 0.0)):
                 pos[n, :len(p.positions)], lengths[n], dt[n], usable[n] = p.positions, len(p.positions), p.dt, True
         a, b = np.searchsorted(ks, ki), np.searchsorted(ks, kj)
-        zones = np.array([(*lat.zone_i, *lat.zone_j) for lat in guarded], float)  # [m]
-        in_i, out_i = occupancy_times(pos, lengths, dt, a, zones[:, 0]), occupancy_times(pos, lengths, dt, a, zones[:, 1])
-        in_j, out_j = occupancy_times(pos, lengths, dt, b, zones[:, 2]), occupancy_times(pos, lengths, dt, b, zones[:, 3])
+        zone_i, zone_j = pairs.zone_i[guarded], pairs.zone_j[guarded]  # [m]
+        in_i, out_i = occupancy_times(pos, lengths, dt, a, zone_i[:, 0]), occupancy_times(pos, lengths, dt, a, zone_i[:, 1])
+        in_j, out_j = occupancy_times(pos, lengths, dt, b, zone_j[:, 0]), occupancy_times(pos, lengths, dt, b, zone_j[:, 1])
         gap = self.settings.safety_time_gap  # [s]
         apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
         return ~(apart & usable[a] & usable[b])

@@ -88,4 +88,8 @@ def test_vectorised_relations_equal_the_loop(paths, movements, conflict_table, s
     assert list(rel.lateral) == lateral
     for lat in rel.lateral:  # exact Python types, as the loop built them
         assert type(lat.s_i) is float and type(lat.live) is bool and type(lat.zone_i[0]) is float
+    assert [rel.pairs.at(m) for m in range(len(rel.pairs))] == lateral  # the columns, one by one
+    vehicle = rel.rows.vehicle
+    assert rel.triggered_pairs() == frozenset(tuple(sorted((int(vehicle[lat.ri]), int(vehicle[lat.rj]))))
+                                              for lat in lateral if lat.play)
     assert (leaders and lateral) or n < 10  # the worlds exercise both
