@@ -115,24 +115,13 @@ def _noetm_duration(target: int, prev_noetm: tuple[int, float], args, notes: lis
     return round(args.warmup + short, 1)
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--duration", type=float, default=50.0, help="[s] simulated time per run")
-    ap.add_argument("--warmup", type=float, default=30.0, help="[s] control steps before are dropped")
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--max-noetm-s", type=float, default=180.0,
-                    help="[s] skip a no-ETM run (below the last level: shorten it) whose "
-                         "predicted wall time exceeds this")
-    ap.add_argument("--min-noetm-window", type=float, default=2.0,
-                    help="[s] shortest measured window after the warmup of the last no-ETM run")
-    args = ap.parse_args()
-
-    notes: list[str] = []
+def run_levels(args, notes: list[str]):
+    """Every level with and without the trigger: (runs, steps by etm, SUMO step times [ms] by
+    etm, SUMO step times by run index)."""
     all_steps = {True: [], False: []}
     sumo_all = {True: [], False: []}
     sumo_runs: dict[int, list[float]] = {}  # run index -> its SUMO step times [ms]
     runs = []
-    t_start = time.perf_counter()
     with sumo_step_timer() as sumo_ms:
         prev_noetm = None
         for target in TARGETS:
@@ -147,7 +136,8 @@ def main() -> int:
                 st = r["steps"]
                 print(f"  target {target:3d} etm={etm!s:5}: wall {r['wall_s']:6.1f} s, n median "
                       f"{st['n'].median():.0f} [{st['n'].min()}-{st['n'].max()}], compute median "
-                      f"{st['compute_ms'].median():.2f} ms", file=sys.stderr, flush=True)
+                      f"{st['compute_ms'].median():.2f} ms, ratio to SUMO "
+                      f"{_ratio(st['compute_ms'].median(), r['sumo_ms'])}", file=sys.stderr, flush=True)
                 runs.append({"target": target, "etm": etm, "total_rate_veh_h": TOTAL_RATES[target],
                              "wall_s": round(r["wall_s"], 1), "n_median": float(st["n"].median()),
                              "n_max": int(st["n"].max()),
@@ -160,51 +150,50 @@ def main() -> int:
                 sumo_runs[len(runs) - 1] = r["sumo_ms"]
                 if not etm:
                     prev_noetm = (target, r["wall_s"])
+    return runs, all_steps, sumo_all, sumo_runs
 
-    bins = {}
-    exponents = {}
-    for etm in (True, False):
-        steps = pd.concat(all_steps[etm]) if all_steps[etm] else pd.DataFrame(
-            columns=["time", "n", "compute_ms", "games", "run"])
-        rows = []
-        for target in TARGETS:
-            sel = steps[(steps["n"] >= 0.8 * target) & (steps["n"] <= 1.2 * target)]
-            if len(sel) == 0:
-                rows.append({"target": target, "steps": 0})
-                continue
-            rows.append({"target": target, "lo": int(np.floor(0.8 * target)),
-                         "hi": int(np.ceil(1.2 * target)), "steps": int(len(sel)),
-                         "n_median": float(sel["n"].median()),
-                         "compute_ms_median": round(float(sel["compute_ms"].median()), 3),
-                         "compute_ms_p95": round(float(sel["compute_ms"].quantile(0.95)), 3),
-                         "games_median": float(sel["games"].median()),
-                         "ratio_to_sumo": _ratio(sel["compute_ms"].median(), [
-                             t for run in sorted(set(sel["run"])) for t in sumo_runs[run]])})
-        key = "etm" if etm else "noetm"
-        bins[key] = rows
-        pts = [(r["n_median"], r["compute_ms_median"]) for r in rows
-               if r["steps"] >= 5 and r["compute_ms_median"] > 0]
-        if len(pts) >= 2:
-            x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
-            exponents[key] = round(float(np.polyfit(x, y, 1)[0]), 3)
-        else:
-            exponents[key] = None
-            notes.append(f"{key}: fewer than 2 populated bins, no exponent")
-        missing = [r["target"] for r in rows if r["steps"] < 5]
-        if missing:
-            notes.append(f"{key}: bins for targets {missing} have < 5 steps (not reached/skipped)")
 
-    sumo_med = {k: (round(float(np.median(v)), 4) if v else None) for k, v in
-                (("etm", sumo_all[True]), ("noetm", sumo_all[False]))}
+def bin_steps(steps: pd.DataFrame, sumo_runs: dict[int, list[float]]) -> list[dict]:
+    """Per target, the steps with n in [0.8, 1.2] x target: medians, p95 and the ratio of the
+    controller's median to SUMO's median over the runs those steps come from."""
+    rows = []
+    for target in TARGETS:
+        sel = steps[(steps["n"] >= 0.8 * target) & (steps["n"] <= 1.2 * target)]
+        if len(sel) == 0:
+            rows.append({"target": target, "steps": 0})
+            continue
+        rows.append({"target": target, "lo": int(np.floor(0.8 * target)),
+                     "hi": int(np.ceil(1.2 * target)), "steps": int(len(sel)),
+                     "n_median": float(sel["n"].median()),
+                     "compute_ms_median": round(float(sel["compute_ms"].median()), 3),
+                     "compute_ms_p95": round(float(sel["compute_ms"].quantile(0.95)), 3),
+                     "games_median": float(sel["games"].median()),
+                     "ratio_to_sumo": _ratio(sel["compute_ms"].median(), [
+                         t for run in sorted(set(sel["run"])) for t in sumo_runs[run]])})
+    return rows
 
+
+def growth_exponent(rows: list[dict]) -> float | None:
+    """[-] least-squares slope of log(median compute_ms) on log(median n) over the bins with at
+    least 5 steps; None with fewer than two."""
+    pts = [(r["n_median"], r["compute_ms_median"]) for r in rows
+           if r["steps"] >= 5 and r["compute_ms_median"] > 0]
+    if len(pts) < 2:
+        return None
+    x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+    return round(float(np.polyfit(x, y, 1)[0]), 3)
+
+
+def print_table(bins: dict, sumo_med: dict, exponents: dict) -> None:
     print("\n  target | ETM: steps  n_med  ms_med  ms_p95 | no-ETM: steps  n_med  ms_med  ms_p95",
           file=sys.stderr)
+
+    def cell(r):
+        if r["steps"] == 0:
+            return f"{0:11d}      -       -       -"
+        return f"{r['steps']:11d} {r['n_median']:6.0f} {r['compute_ms_median']:7.2f} {r['compute_ms_p95']:7.2f}"
+
     for a, b in zip(bins["etm"], bins["noetm"]):
-        def cell(r):
-            if r["steps"] == 0:
-                return f"{0:11d}      -       -       -"
-            return (f"{r['steps']:11d} {r['n_median']:6.0f} {r['compute_ms_median']:7.2f} "
-                    f"{r['compute_ms_p95']:7.2f}")
         print(f"  {a['target']:6d} | {cell(a)} | {cell(b)}", file=sys.stderr)
     print("  controller median / SUMO median (same runs): ETM "
           f"{[r.get('ratio_to_sumo') for r in bins['etm']]}, no-ETM "
@@ -214,6 +203,37 @@ def main() -> int:
     print(f"  growth exponent (compute_ms ~ n^k): ETM k={exponents['etm']}, "
           f"no-ETM k={exponents['noetm']}", file=sys.stderr)
 
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--duration", type=float, default=50.0, help="[s] simulated time per run")
+    ap.add_argument("--warmup", type=float, default=30.0, help="[s] control steps before are dropped")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--max-noetm-s", type=float, default=180.0,
+                    help="[s] skip a no-ETM run (below the last level: shorten it) whose "
+                         "predicted wall time exceeds this")
+    ap.add_argument("--min-noetm-window", type=float, default=2.0,
+                    help="[s] shortest measured window after the warmup of the last no-ETM run")
+    args = ap.parse_args()
+
+    notes: list[str] = []
+    t_start = time.perf_counter()
+    runs, all_steps, sumo_all, sumo_runs = run_levels(args, notes)
+    bins, exponents = {}, {}
+    for etm in (True, False):
+        steps = pd.concat(all_steps[etm]) if all_steps[etm] else pd.DataFrame(
+            columns=["time", "n", "compute_ms", "games", "run"])
+        key = "etm" if etm else "noetm"
+        bins[key] = rows = bin_steps(steps, sumo_runs)
+        exponents[key] = growth_exponent(rows)
+        if exponents[key] is None:
+            notes.append(f"{key}: fewer than 2 populated bins, no exponent")
+        missing = [r["target"] for r in rows if r["steps"] < 5]
+        if missing:
+            notes.append(f"{key}: bins for targets {missing} have < 5 steps (not reached/skipped)")
+    sumo_med = {k: (round(float(np.median(v)), 4) if v else None) for k, v in
+                (("etm", sumo_all[True]), ("noetm", sumo_all[False]))}
+    print_table(bins, sumo_med, exponents)
     result = {
         "benchmark": "bench_scale", "controller": "nash", "budget_ms": 10000.0,
         "duration_s": args.duration, "warmup_s": args.warmup, "seed": args.seed,
