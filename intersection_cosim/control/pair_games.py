@@ -63,9 +63,10 @@ def pair_games(relations: Relations, options: Mapping[int, tuple[str, ...]]) -> 
     # the live lateral pairs of the triggered vehicle pairs (any of their rows may have fired),
     # selected with numpy over all the step's lateral pairs
     lo, hi = relations.pair_vehicles()
-    key = lo * len(rows) + hi
-    fired = key[pairs.play]
-    for m in np.flatnonzero(pairs.live & np.isin(key, fired)):
+    key = lo * len(rows) + hi  # unique per vehicle pair: World indices < len(rows)
+    fired = np.zeros(len(rows) * len(rows), bool)
+    fired[key[pairs.play]] = True
+    for m in np.flatnonzero(pairs.live & fired[key]):
         lat = pairs.at(m)
         ri, rj, s_i, s_j = lat.ri, lat.rj, lat.s_i, lat.s_j
         ka, kb = int(rows.vehicle[ri]), int(rows.vehicle[rj])

@@ -202,7 +202,8 @@ def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
     # level on its own branch (Case 2's V3 beside V4)
     until = np.where(risk.kind[m] == KIND_FOLLOWING, s_cp_l + clear, math.inf)  # [m]
     by_gap = np.lexsort((np.arange(len(m)), gap, follow))  # per follower: smallest gap, then first
-    firsts = by_gap[np.r_[True, follow[by_gap][1:] != follow[by_gap][:-1]]]  # by follower
+    sorted_follow = follow[by_gap]
+    firsts = by_gap[np.concatenate(([True], sorted_follow[1:] != sorted_follow[:-1]))]  # by follower
     _, first_seen = np.unique(follow, return_index=True)  # by follower too
     firsts = firsts[np.argsort(first_seen)]
     offset = (s_cp_f - s_cp_l)[firsts]
@@ -214,7 +215,9 @@ def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: Conflic
               pidx: np.ndarray, model: ModelSettings, etm: bool) -> LateralPairs:
     """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
     whose two vehicles have not cleared the crossing (in the ETM's order)."""
-    row_active = np.isin(k_of, np.fromiter(active, dtype=np.intp, count=len(active)))
+    is_active = np.zeros(int(k_of.max()) + 1 if len(k_of) else 0, bool)  # by World index
+    is_active[[k for k in active if k < len(is_active)]] = True
+    row_active = is_active[k_of]
     a_i, a_j = row_active[risk.i], row_active[risk.j]
     lateral_kind = ((risk.kind == KIND_CROSS) | (risk.kind == KIND_CONFLUENCE)) & ~risk.leader_follower
     m = np.flatnonzero(lateral_kind & (a_i | a_j))
