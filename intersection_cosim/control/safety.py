@@ -49,6 +49,10 @@ from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
 
 
+VECTOR_MIN_PAIRS = 16  # [-] guarded pairs from which the filter's first look is vectorised (below it
+#                        numpy's fixed cost exceeds the per-pair check's)
+
+
 def occupancy(plan: Plan, enter: float, leave: float) -> tuple[float, float]:
     """[s] (enter, leave): when the planned front reaches arc length ``enter`` and when it passes
     ``leave`` [m] (a crossing's zone of the conflict table); ``inf`` where that is beyond the
@@ -184,8 +188,8 @@ class SafetyFilter:
         keep the crossing clear (it does nothing then), computed for all pairs together with
         :func:`occupancy_times`; True where it must look (also for a pair with a plan missing or
         a plan whose positions go backwards, which it checks itself)."""
-        if not len(guarded):
-            return np.zeros(0, bool)
+        if len(guarded) < VECTOR_MIN_PAIRS:  # the per-pair guard's own check is cheaper
+            return np.ones(len(guarded), bool)
         pairs, vehicle = relations.pairs, relations.rows.vehicle
         ki, kj = vehicle[pairs.ri[guarded]], vehicle[pairs.rj[guarded]]
         ks = np.unique(np.concatenate([ki, kj]))

@@ -55,3 +55,31 @@ def test_occupancy_times_equal_occupancy_bit_for_bit():
     want = [occupancy(plans[r], t, t)[0] for r, t in zip(row, target)]
     assert got.tolist() == want
     assert (got == 0.0).any() and np.isinf(got).any() and ((got > 0.0) & np.isfinite(got)).any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_vectorised_first_look_changes_no_decision(paths, net_file, seed, monkeypatch):
+    """A dense random world decided with the filter's vectorised first look at every pair and
+    with the per-pair guard alone: the same accelerations, bit for bit."""
+    import time
+
+    from intersection_cosim.control import safety
+    from intersection_cosim.control.base import ControlContext
+    from intersection_cosim.control.game import GameController
+    from intersection_cosim.models.settings import ModelSettings
+    from intersection_cosim.network.movements import paper_movements
+    from tests.control.test_relations_vectorised import _random_world
+
+    def decide(min_pairs):
+        monkeypatch.setattr(safety, "VECTOR_MIN_PAIRS", min_pairs)
+        c = GameController("nash")
+        c.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
+                               settings=None, etm=True))
+        world = _random_world(paths, np.random.default_rng(seed), 40)
+        return c.decide(world, time.perf_counter() + 60.0), c.safety
+
+    vec, f_vec = decide(0)
+    loop, f_loop = decide(10 ** 9)
+    assert vec.accel == loop.accel and len(vec.accel) == 40
+    assert (f_vec.filtered, f_vec.cleared) == (f_loop.filtered, f_loop.cleared)
+    assert f_vec.filtered > 0  # the filter had crossings to guard
