@@ -14,9 +14,16 @@ least-squares slope of log(median compute_ms) on log(median n) (numpy.polyfit). 
 the growth should stay near linear in the number of vehicles (exponent ~1), not quadratic in the
 number of pairs (exponent ~2, the no-ETM behaviour).
 
+Every run's line in the JSON (``runs``) has ``ratio_to_sumo``: the controller's median
+compute_ms over SUMO's median step in that same run (a load-independent measure, both timed on
+the same machine at the same time); each bin has the same ratio against the SUMO steps of its
+runs. The no-ETM run of the 80-vehicle level always runs: if its predicted wall time (quadratic
+growth from the previous no-ETM run) exceeds ``--max-noetm-s`` its measured window after the
+warmup is shortened (never below ``--min-noetm-window`` s), which the JSON's ``note`` says.
+
 A table goes to stderr; the last line of stdout is one JSON object.
 
-    python scripts/bench_scale.py [--duration 90] [--warmup 30] [--max-noetm-s 180]
+    python scripts/bench_scale.py [--duration 50] [--warmup 30] [--max-noetm-s 180]
 """
 
 from __future__ import annotations
@@ -77,95 +84,156 @@ def run_one(scn, warmup: float, sumo_ms: list[float]) -> dict:
             "sumo_ms": list(sumo_ms), "wall_s": wall}
 
 
+def _ratio(compute_ms_median: float, sumo_ms: list[float]) -> float | None:
+    """[-] the controller's median step over SUMO's median step (same run or runs)."""
+    if not sumo_ms:
+        return None
+    return round(float(compute_ms_median) / float(np.median(sumo_ms)), 2)
+
+
+def _noetm_duration(target: int, prev_noetm: tuple[int, float], args, notes: list[str]) -> float | None:
+    """[s] simulated duration of the no-ETM run for ``target``, or None to skip it.
+
+    The wall time is predicted quadratic in n from the previous no-ETM run (``prev_noetm``:
+    its target and wall time [s]). Below the last level a run predicted over ``max_noetm_s`` is
+    skipped; the last level is always run, its measured window after the warmup shortened in
+    proportion (at least ``min_noetm_window`` [s])."""
+    predicted = prev_noetm[1] * (target / prev_noetm[0]) ** 2  # [s] wall
+    if predicted <= args.max_noetm_s:
+        return args.duration
+    if target != TARGETS[-1]:
+        notes.append(f"no-ETM run for target {target} skipped (predicted {predicted:.0f} s wall > "
+                     f"{args.max_noetm_s:.0f} s)")
+        return None
+    window = args.duration - args.warmup  # [s] measured part
+    short = max(args.min_noetm_window, window * args.max_noetm_s / predicted)
+    if short >= window:
+        return args.duration
+    notes.append(f"no-ETM run for target {target} shortened to {args.warmup + short:.1f} s "
+                 f"({short:.1f} s measured after the warmup; predicted {predicted:.0f} s wall "
+                 f"for {args.duration:.0f} s)")
+    return round(args.warmup + short, 1)
+
+
+def run_levels(args, notes: list[str]):
+    """Every level with and without the trigger: (runs, steps by etm, SUMO step times [ms] by
+    etm, SUMO step times by run index)."""
+    all_steps = {True: [], False: []}
+    sumo_all = {True: [], False: []}
+    sumo_runs: dict[int, list[float]] = {}  # run index -> its SUMO step times [ms]
+    runs = []
+    with sumo_step_timer() as sumo_ms:
+        prev_noetm = None
+        for target in TARGETS:
+            for etm in (True, False):
+                duration = args.duration
+                if not etm and prev_noetm is not None:
+                    duration = _noetm_duration(target, prev_noetm, args, notes)
+                    if duration is None:
+                        continue
+                scn = build_scenario(TOTAL_RATES[target], duration, args.seed, etm)
+                r = run_one(scn, args.warmup, sumo_ms)
+                st = r["steps"]
+                print(f"  target {target:3d} etm={etm!s:5}: wall {r['wall_s']:6.1f} s, n median "
+                      f"{st['n'].median():.0f} [{st['n'].min()}-{st['n'].max()}], compute median "
+                      f"{st['compute_ms'].median():.2f} ms, ratio to SUMO "
+                      f"{_ratio(st['compute_ms'].median(), r['sumo_ms'])}", file=sys.stderr, flush=True)
+                runs.append({"target": target, "etm": etm, "total_rate_veh_h": TOTAL_RATES[target],
+                             "wall_s": round(r["wall_s"], 1), "n_median": float(st["n"].median()),
+                             "n_max": int(st["n"].max()),
+                             "duration_s": duration,
+                             "compute_ms_median": round(float(st["compute_ms"].median()), 3),
+                             "sumo_ms_median": round(float(np.median(r["sumo_ms"])), 4),
+                             "ratio_to_sumo": _ratio(st["compute_ms"].median(), r["sumo_ms"])})
+                all_steps[etm].append(st.assign(run=len(runs) - 1))
+                sumo_all[etm].extend(r["sumo_ms"])
+                sumo_runs[len(runs) - 1] = r["sumo_ms"]
+                if not etm:
+                    prev_noetm = (target, r["wall_s"])
+    return runs, all_steps, sumo_all, sumo_runs
+
+
+def bin_steps(steps: pd.DataFrame, sumo_runs: dict[int, list[float]]) -> list[dict]:
+    """Per target, the steps with n in [0.8, 1.2] x target: medians, p95 and the ratio of the
+    controller's median to SUMO's median over the runs those steps come from."""
+    rows = []
+    for target in TARGETS:
+        sel = steps[(steps["n"] >= 0.8 * target) & (steps["n"] <= 1.2 * target)]
+        if len(sel) == 0:
+            rows.append({"target": target, "steps": 0})
+            continue
+        rows.append({"target": target, "lo": int(np.floor(0.8 * target)),
+                     "hi": int(np.ceil(1.2 * target)), "steps": int(len(sel)),
+                     "n_median": float(sel["n"].median()),
+                     "compute_ms_median": round(float(sel["compute_ms"].median()), 3),
+                     "compute_ms_p95": round(float(sel["compute_ms"].quantile(0.95)), 3),
+                     "games_median": float(sel["games"].median()),
+                     "ratio_to_sumo": _ratio(sel["compute_ms"].median(), [
+                         t for run in sorted(set(sel["run"])) for t in sumo_runs[run]])})
+    return rows
+
+
+def growth_exponent(rows: list[dict]) -> float | None:
+    """[-] least-squares slope of log(median compute_ms) on log(median n) over the bins with at
+    least 5 steps; None with fewer than two."""
+    pts = [(r["n_median"], r["compute_ms_median"]) for r in rows
+           if r["steps"] >= 5 and r["compute_ms_median"] > 0]
+    if len(pts) < 2:
+        return None
+    x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+    return round(float(np.polyfit(x, y, 1)[0]), 3)
+
+
+def print_table(bins: dict, sumo_med: dict, exponents: dict) -> None:
+    print("\n  target | ETM: steps  n_med  ms_med  ms_p95 | no-ETM: steps  n_med  ms_med  ms_p95",
+          file=sys.stderr)
+
+    def cell(r):
+        if r["steps"] == 0:
+            return f"{0:11d}      -       -       -"
+        return f"{r['steps']:11d} {r['n_median']:6.0f} {r['compute_ms_median']:7.2f} {r['compute_ms_p95']:7.2f}"
+
+    for a, b in zip(bins["etm"], bins["noetm"]):
+        print(f"  {a['target']:6d} | {cell(a)} | {cell(b)}", file=sys.stderr)
+    print("  controller median / SUMO median (same runs): ETM "
+          f"{[r.get('ratio_to_sumo') for r in bins['etm']]}, no-ETM "
+          f"{[r.get('ratio_to_sumo') for r in bins['noetm']]}", file=sys.stderr)
+    print(f"  SUMO step (advance) median: ETM runs {sumo_med['etm']} ms, no-ETM runs "
+          f"{sumo_med['noetm']} ms", file=sys.stderr)
+    print(f"  growth exponent (compute_ms ~ n^k): ETM k={exponents['etm']}, "
+          f"no-ETM k={exponents['noetm']}", file=sys.stderr)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--duration", type=float, default=50.0, help="[s] simulated time per run")
     ap.add_argument("--warmup", type=float, default=30.0, help="[s] control steps before are dropped")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--max-noetm-s", type=float, default=180.0,
-                    help="[s] skip a no-ETM run whose predicted wall time exceeds this")
+                    help="[s] skip a no-ETM run (below the last level: shorten it) whose "
+                         "predicted wall time exceeds this")
+    ap.add_argument("--min-noetm-window", type=float, default=2.0,
+                    help="[s] shortest measured window after the warmup of the last no-ETM run")
     args = ap.parse_args()
 
     notes: list[str] = []
-    all_steps = {True: [], False: []}
-    sumo_all = {True: [], False: []}
-    runs = []
     t_start = time.perf_counter()
-    with sumo_step_timer() as sumo_ms:
-        prev_noetm = None
-        for target in TARGETS:
-            for etm in (True, False):
-                if not etm and prev_noetm is not None:
-                    # predicted wall time: quadratic growth in n from the previous no-ETM run
-                    predicted = prev_noetm[1] * (target / prev_noetm[0]) ** 2
-                    if predicted > args.max_noetm_s:
-                        notes.append(f"no-ETM run for target {target} skipped (predicted "
-                                     f"{predicted:.0f} s wall > {args.max_noetm_s:.0f} s)")
-                        continue
-                scn = build_scenario(TOTAL_RATES[target], args.duration, args.seed, etm)
-                r = run_one(scn, args.warmup, sumo_ms)
-                st = r["steps"]
-                print(f"  target {target:3d} etm={etm!s:5}: wall {r['wall_s']:6.1f} s, n median "
-                      f"{st['n'].median():.0f} [{st['n'].min()}-{st['n'].max()}], compute median "
-                      f"{st['compute_ms'].median():.2f} ms", file=sys.stderr, flush=True)
-                runs.append({"target": target, "etm": etm, "total_rate_veh_h": TOTAL_RATES[target],
-                             "wall_s": round(r["wall_s"], 1), "n_median": float(st["n"].median()),
-                             "n_max": int(st["n"].max()),
-                             "compute_ms_median": round(float(st["compute_ms"].median()), 3),
-                             "sumo_ms_median": round(float(np.median(r["sumo_ms"])), 4)})
-                all_steps[etm].append(st)
-                sumo_all[etm].extend(r["sumo_ms"])
-                if not etm:
-                    prev_noetm = (target, r["wall_s"])
-
-    bins = {}
-    exponents = {}
+    runs, all_steps, sumo_all, sumo_runs = run_levels(args, notes)
+    bins, exponents = {}, {}
     for etm in (True, False):
         steps = pd.concat(all_steps[etm]) if all_steps[etm] else pd.DataFrame(
-            columns=["time", "n", "compute_ms", "games"])
-        rows = []
-        for target in TARGETS:
-            sel = steps[(steps["n"] >= 0.8 * target) & (steps["n"] <= 1.2 * target)]
-            if len(sel) == 0:
-                rows.append({"target": target, "steps": 0})
-                continue
-            rows.append({"target": target, "lo": int(np.floor(0.8 * target)),
-                         "hi": int(np.ceil(1.2 * target)), "steps": int(len(sel)),
-                         "n_median": float(sel["n"].median()),
-                         "compute_ms_median": round(float(sel["compute_ms"].median()), 3),
-                         "compute_ms_p95": round(float(sel["compute_ms"].quantile(0.95)), 3),
-                         "games_median": float(sel["games"].median())})
+            columns=["time", "n", "compute_ms", "games", "run"])
         key = "etm" if etm else "noetm"
-        bins[key] = rows
-        pts = [(r["n_median"], r["compute_ms_median"]) for r in rows
-               if r["steps"] >= 5 and r["compute_ms_median"] > 0]
-        if len(pts) >= 2:
-            x, y = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
-            exponents[key] = round(float(np.polyfit(x, y, 1)[0]), 3)
-        else:
-            exponents[key] = None
+        bins[key] = rows = bin_steps(steps, sumo_runs)
+        exponents[key] = growth_exponent(rows)
+        if exponents[key] is None:
             notes.append(f"{key}: fewer than 2 populated bins, no exponent")
         missing = [r["target"] for r in rows if r["steps"] < 5]
         if missing:
             notes.append(f"{key}: bins for targets {missing} have < 5 steps (not reached/skipped)")
-
     sumo_med = {k: (round(float(np.median(v)), 4) if v else None) for k, v in
                 (("etm", sumo_all[True]), ("noetm", sumo_all[False]))}
-
-    print("\n  target | ETM: steps  n_med  ms_med  ms_p95 | no-ETM: steps  n_med  ms_med  ms_p95",
-          file=sys.stderr)
-    for a, b in zip(bins["etm"], bins["noetm"]):
-        def cell(r):
-            if r["steps"] == 0:
-                return f"{0:11d}      -       -       -"
-            return (f"{r['steps']:11d} {r['n_median']:6.0f} {r['compute_ms_median']:7.2f} "
-                    f"{r['compute_ms_p95']:7.2f}")
-        print(f"  {a['target']:6d} | {cell(a)} | {cell(b)}", file=sys.stderr)
-    print(f"  SUMO step (advance) median: ETM runs {sumo_med['etm']} ms, no-ETM runs "
-          f"{sumo_med['noetm']} ms", file=sys.stderr)
-    print(f"  growth exponent (compute_ms ~ n^k): ETM k={exponents['etm']}, "
-          f"no-ETM k={exponents['noetm']}", file=sys.stderr)
-
+    print_table(bins, sumo_med, exponents)
     result = {
         "benchmark": "bench_scale", "controller": "nash", "budget_ms": 10000.0,
         "duration_s": args.duration, "warmup_s": args.warmup, "seed": args.seed,

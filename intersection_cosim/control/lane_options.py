@@ -60,12 +60,13 @@ def lane_options(world: World, relations: Relations, movements: Movements,
 
 def _partners(relations: Relations) -> dict[int, dict[str, tuple]]:
     """World index -> exit lane -> (lateral partners, leader) of that row."""
-    rows = relations.rows
+    rows, pairs = relations.rows, relations.pairs
     partners: dict[int, set] = {r: set() for r in range(len(rows))}
-    for lat in relations.lateral:
-        if lat.live:
-            partners[lat.ri].add(int(rows.vehicle[lat.rj]))
-            partners[lat.rj].add(int(rows.vehicle[lat.ri]))
+    live = pairs.live
+    ri, rj = pairs.ri[live], pairs.rj[live]
+    for a, b, ka, kb in zip(ri.tolist(), rj.tolist(), rows.vehicle[ri].tolist(), rows.vehicle[rj].tolist()):
+        partners[a].add(kb)
+        partners[b].add(ka)
     sig: dict[int, dict[str, tuple]] = {}
     for r, k in enumerate(rows.vehicle):
         lead = relations.leaders.get(r)

@@ -18,6 +18,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
+import numpy as np
+
 from intersection_cosim.control.base import World
 from intersection_cosim.control.lane_options import LaneChangeCosts
 from intersection_cosim.control.plan_memory import GameKey, PlanMemory
@@ -56,18 +58,20 @@ class GameSolver:
 
 def pair_games(relations: Relations, options: Mapping[int, tuple[str, ...]]) -> dict[tuple[int, int], PairGame]:
     """The triggered vehicle pairs, with the interactions of each of their exit-lane options."""
-    rows = relations.rows
+    rows, pairs = relations.rows, relations.pairs
     games: dict[tuple[int, int], PairGame] = {}
-    triggered = relations.triggered_pairs()
-    for lat in relations.lateral:
-        if not lat.live:
-            continue
+    # the live lateral pairs of the triggered vehicle pairs (any of their rows may have fired),
+    # selected with numpy over all the step's lateral pairs
+    lo, hi = relations.pair_vehicles()
+    key = lo * len(rows) + hi  # unique per vehicle pair: World indices < len(rows)
+    fired = np.zeros(len(rows) * len(rows), bool)
+    fired[key[pairs.play]] = True
+    for m in np.flatnonzero(pairs.live & fired[key]):
+        lat = pairs.at(m)
         ri, rj, s_i, s_j = lat.ri, lat.rj, lat.s_i, lat.s_j
         ka, kb = int(rows.vehicle[ri]), int(rows.vehicle[rj])
         if ka > kb:
             ka, kb, ri, rj, s_i, s_j = kb, ka, rj, ri, s_j, s_i
-        if (ka, kb) not in triggered:
-            continue
         if rows.option[ri] not in options[ka] or rows.option[rj] not in options[kb]:
             continue
         game = games.setdefault((ka, kb), PairGame(ka, kb))

@@ -8,6 +8,7 @@ the safety filter) reads and never changes.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Mapping, NamedTuple
@@ -62,19 +63,60 @@ class Lateral(NamedTuple):
 
 
 @dataclass(frozen=True)
+class LateralPairs:
+    """The step's lateral pairs as columns, one entry per pair in the ETM's order (what the
+    step's consumers select from with numpy; :meth:`at` gives one as a :class:`Lateral`)."""
+
+    ri: np.ndarray  # (L,) row of the first vehicle
+    rj: np.ndarray  # (L,) row of the second
+    cross: np.ndarray  # (L,) bool: a cross pair (else a confluence pair)
+    s_i: np.ndarray  # (L,) [m] conflict point on row ri's path
+    s_j: np.ndarray  # (L,) [m] ... on row rj's path
+    live: np.ndarray  # (L,) bool, as Lateral.live
+    play: np.ndarray  # (L,) bool, as Lateral.play
+    zone_i: np.ndarray  # (L, 2) [m] as Lateral.zone_i
+    zone_j: np.ndarray  # (L, 2) [m] as Lateral.zone_j
+
+    def __len__(self) -> int:
+        return len(self.ri)
+
+    def at(self, m: int) -> Lateral:
+        """Pair ``m`` as a :class:`Lateral` (Python scalars)."""
+        return Lateral(int(self.ri[m]), int(self.rj[m]), "cross" if self.cross[m] else "confluence",
+                       float(self.s_i[m]), float(self.s_j[m]), bool(self.live[m]), bool(self.play[m]),
+                       (float(self.zone_i[m, 0]), float(self.zone_i[m, 1])),
+                       (float(self.zone_j[m, 0]), float(self.zone_j[m, 1])))
+
+
+@dataclass(frozen=True)
 class Relations:
     """Everything of one step that depends on the vehicles' positions relative to each other."""
 
     rows: Rows
     leaders: Mapping[int, Leader]  # row -> its nearest leader
-    lateral: tuple[Lateral, ...]
+    pairs: LateralPairs  # the lateral pairs as columns
     row_of: Mapping[tuple[int, str], int]  # (World index, exit lane) -> row
+
+    @functools.cached_property
+    def lateral(self) -> tuple[Lateral, ...]:
+        """The lateral pairs, one :class:`Lateral` each (built on first use)."""
+        p = self.pairs
+        cols = [x.tolist() for x in (p.ri, p.rj, p.cross, p.s_i, p.s_j, p.live, p.play)]
+        zones = [list(map(tuple, z.tolist())) for z in (p.zone_i, p.zone_j)]
+        return tuple(Lateral(a, b, "cross" if c else "confluence", si, sj, lv, pl, zi, zj)
+                     for a, b, c, si, sj, lv, pl, zi, zj in zip(*cols, *zones))
+
+    def pair_vehicles(self) -> tuple[np.ndarray, np.ndarray]:
+        """(L,), (L,): World indices (lower, higher) of each lateral pair's two vehicles."""
+        vehicle = self.rows.vehicle
+        a, b = vehicle[self.pairs.ri], vehicle[self.pairs.rj]
+        return np.minimum(a, b), np.maximum(a, b)
 
     def triggered_pairs(self) -> frozenset[tuple[int, int]]:
         """(a, b) with a < b, World indices of the vehicle pairs that play a game this step."""
-        vehicle = self.rows.vehicle
-        return frozenset(tuple(sorted((int(vehicle[lat.ri]), int(vehicle[lat.rj]))))
-                         for lat in self.lateral if lat.play)
+        lo, hi = self.pair_vehicles()
+        play = self.pairs.play
+        return frozenset(zip(lo[play].tolist(), hi[play].tolist()))
 
     def leader_of(self, k: int, option: str) -> Leader | None:
         return self.leaders.get(self.row_of[(k, option)])
@@ -112,17 +154,19 @@ def step_relations(world: World, active: set[int], movements: Movements, table: 
     rows = build_rows(world, active, movements, table, held, lane_choice_range)
     leaders, lateral = _pair_relations(world, rows, active, table, model, etm)
     row_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
-    return Relations(rows, leaders, tuple(lateral), row_of)
+    return Relations(rows, leaders, lateral, row_of)
 
 
 def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictTable, model: ModelSettings,
-                    etm: bool) -> tuple[dict[int, Leader], list[Lateral]]:
+                    etm: bool) -> tuple[dict[int, Leader], LateralPairs]:
     """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM.
 
     A lateral pair stays in the list until one of the two has cleared the crossing (its front
     past ``zone_out`` of the conflict table, for confluence pairs the point plus a vehicle
     length and half a width), so the safety filter guards it that long; it carries J_lat and
     may play a game only while neither is more than ``conflict_clearance`` past the point.
+    Vectorised over the ETM's pairs: the cost of a step grows with the pairs that matter, not
+    with a Python loop over every pair.
     """
     i, j = all_pairs(len(rows))
     keep = rows.vehicle[i] != rows.vehicle[j]
@@ -131,59 +175,65 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
                          pairs=(i[keep], j[keep]))
     s_now = (world.s[k_of[risk.i]], world.s[k_of[risk.j]])
     d = (risk.s_cp_i - s_now[0], risk.s_cp_j - s_now[1])
-    leaders: dict[int, Leader] = {}
-    lateral: list[Lateral] = []
-    for m in range(len(risk.i)):
-        if risk.leader_follower[m]:
-            _add_leader(leaders, risk, m, d, k_of, model.conflict_clearance)
-        elif risk.kind[m] in (KIND_CROSS, KIND_CONFLUENCE):
-            lat = _lateral(risk, m, d, s_now, k_of, active, table, pidx, model, etm)
-            if lat is not None:
-                lateral.append(lat)
+    leaders = _leaders(risk, d, k_of, model.conflict_clearance)
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm)
     return leaders, lateral
 
 
-def _add_leader(leaders: dict[int, Leader], risk, m: int, d, k_of: np.ndarray, clear: float) -> None:
-    """Record pair ``m`` (a leader-follower pair of the ETM) if it is the follower's nearest."""
-    ri, rj = int(risk.i[m]), int(risk.j[m])
-    d_i, d_j = d[0][m], d[1][m]
-    if min(d_i, d_j) < -clear and risk.kind[m] != KIND_CONFLUENCE:
-        return  # the leader has left the shared stretch
-    lead, follow = (ri, rj) if d_i < d_j else (rj, ri)
-    s_cp_f = risk.s_cp_i[m] if follow == ri else risk.s_cp_j[m]
-    s_cp_l = risk.s_cp_j[m] if follow == ri else risk.s_cp_i[m]
-    gap = abs(d_i - d_j)
-    if follow in leaders and leaders[follow].gap <= gap:
-        return
+def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
+    """Each follower row's nearest leader among the ETM's leader-follower pairs (the first such
+    pair in the ETM's order on equal gaps), keyed in the order the followers first appear.
+
+    A following pair whose leader has left the shared stretch (more than ``clear`` [m] past its
+    end) gives no leader."""
+    d_i, d_j = d
+    gone = (np.minimum(d_i, d_j) < -clear) & (risk.kind != KIND_CONFLUENCE)
+    m = np.flatnonzero(risk.leader_follower & ~gone)
+    if len(m) == 0:
+        return {}
+    i_leads = d_i[m] < d_j[m]
+    follow = np.where(i_leads, risk.j[m], risk.i[m])
+    lead = np.where(i_leads, risk.i[m], risk.j[m])
+    s_cp_f = np.where(i_leads, risk.s_cp_j[m], risk.s_cp_i[m])  # [m] the point on the follower's path
+    s_cp_l = np.where(i_leads, risk.s_cp_i[m], risk.s_cp_j[m])  # [m] ... on the leader's path
+    gap = np.abs(d_i[m] - d_j[m])  # [m]
     # two paths from one approach lane that part (s_cp = end of the shared stretch, where the
     # centre lines are a width apart): once the leader's rear is past it, the follower may draw
     # level on its own branch (Case 2's V3 beside V4)
-    until = s_cp_l + clear if risk.kind[m] == KIND_FOLLOWING else math.inf
-    leaders[follow] = Leader(int(k_of[lead]), float(s_cp_f - s_cp_l), float(gap), float(until))
+    until = np.where(risk.kind[m] == KIND_FOLLOWING, s_cp_l + clear, math.inf)  # [m]
+    by_gap = np.lexsort((np.arange(len(m)), gap, follow))  # per follower: smallest gap, then first
+    sorted_follow = follow[by_gap]
+    firsts = by_gap[np.concatenate(([True], sorted_follow[1:] != sorted_follow[:-1]))]  # by follower
+    _, first_seen = np.unique(follow, return_index=True)  # by follower too
+    firsts = firsts[np.argsort(first_seen)]
+    offset = (s_cp_f - s_cp_l)[firsts]
+    return {int(f): Leader(int(v), float(o), float(g), float(u)) for f, v, o, g, u in zip(
+        follow[firsts], k_of[lead[firsts]], offset, gap[firsts], until[firsts])}
 
 
-def _lateral(risk, m: int, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
-             pidx: np.ndarray, model: ModelSettings, etm: bool) -> Lateral | None:
-    """Pair ``m`` as a lateral pair, or None when neither is controlled or one has cleared it."""
-    ri, rj = int(risk.i[m]), int(risk.j[m])
-    both = k_of[ri] in active and k_of[rj] in active
-    if not both and k_of[ri] not in active and k_of[rj] not in active:
-        return None
-    s_i, s_j = float(risk.s_cp_i[m]), float(risk.s_cp_j[m])
-    if risk.kind[m] == KIND_CROSS:
-        kind = "cross"
-        p_i, p_j = pidx[ri], pidx[rj]
-        zone_i = (float(table.zone_in[p_i, p_j]), float(table.zone_out[p_i, p_j]))
-        zone_j = (float(table.zone_in[p_j, p_i]), float(table.zone_out[p_j, p_i]))
-    else:
-        kind = "confluence"
-        length, width = model.vehicle_length, model.vehicle_width
-        zone_i, zone_j = point_zone(s_i, length, width), point_zone(s_j, length, width)
-    if s_now[0][m] > zone_i[1] or s_now[1][m] > zone_j[1]:
-        return None  # one of them has cleared the crossing
-    # a vehicle that has left the junction (front past its exit, handed back to SUMO) may still
-    # have its rear in the crossing: guarded, no game
+def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
+              pidx: np.ndarray, model: ModelSettings, etm: bool) -> LateralPairs:
+    """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
+    whose two vehicles have not cleared the crossing (in the ETM's order)."""
+    is_active = np.zeros(int(k_of.max()) + 1 if len(k_of) else 0, bool)  # by World index
+    is_active[[k for k in active if k < len(is_active)]] = True
+    row_active = is_active[k_of]
+    a_i, a_j = row_active[risk.i], row_active[risk.j]
+    lateral_kind = ((risk.kind == KIND_CROSS) | (risk.kind == KIND_CONFLUENCE)) & ~risk.leader_follower
+    m = np.flatnonzero(lateral_kind & (a_i | a_j))
+    ri, rj = risk.i[m], risk.j[m]
+    s_i, s_j = risk.s_cp_i[m], risk.s_cp_j[m]  # [m]
+    cross = risk.kind[m] == KIND_CROSS
+    p_i, p_j = pidx[ri], pidx[rj]
+    length, width = model.vehicle_length, model.vehicle_width
+    conf_i, conf_j = point_zone(s_i, length, width), point_zone(s_j, length, width)
+    zone_i = (np.where(cross, table.zone_in[p_i, p_j], conf_i[0]), np.where(cross, table.zone_out[p_i, p_j], conf_i[1]))
+    zone_j = (np.where(cross, table.zone_in[p_j, p_i], conf_j[0]), np.where(cross, table.zone_out[p_j, p_i], conf_j[1]))
+    # one of them has cleared the crossing: dropped. A vehicle that has left the junction (front
+    # past its exit, handed back to SUMO) may still have its rear in the crossing: guarded, no game
+    kept = ~((s_now[0][m] > zone_i[1]) | (s_now[1][m] > zone_j[1]))
     clear = model.conflict_clearance
-    live = both and not (d[0][m] < -clear or d[1][m] < -clear)
-    play = live and (bool(risk.trigger[m]) or not etm)
-    return Lateral(ri, rj, kind, s_i, s_j, live, play, zone_i, zone_j)
+    live = a_i[m] & a_j[m] & ~((d[0][m] < -clear) | (d[1][m] < -clear))
+    play = live & (risk.trigger[m] | (not etm))
+    return LateralPairs(ri[kept], rj[kept], cross[kept], s_i[kept], s_j[kept], live[kept], play[kept],
+                        np.stack(zone_i, axis=1)[kept], np.stack(zone_j, axis=1)[kept])

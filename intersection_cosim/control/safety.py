@@ -49,6 +49,10 @@ from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
 
 
+VECTOR_MIN_PAIRS = 16  # [-] guarded pairs from which the filter's first look is vectorised (below it
+#                        numpy's fixed cost exceeds the per-pair check's)
+
+
 def occupancy(plan: Plan, enter: float, leave: float) -> tuple[float, float]:
     """[s] (enter, leave): when the planned front reaches arc length ``enter`` and when it passes
     ``leave`` [m] (a crossing's zone of the conflict table); ``inf`` where that is beyond the
@@ -67,6 +71,23 @@ def _first_reach(pos: np.ndarray, k: int, target: float, dt: float) -> float:
         return math.inf
     p0, p1 = float(pos[k - 1]), float(pos[k])
     return dt * (k - 1 + (target - p0) / max(p1 - p0, 1e-9))
+
+
+def occupancy_times(positions: np.ndarray, lengths: np.ndarray, dt: np.ndarray, row: np.ndarray,
+                    target: np.ndarray) -> np.ndarray:
+    """[s] when the planned front of plan ``row[m]`` reaches arc length ``target[m]`` [m], as
+    :func:`occupancy` computes it, for many (plan, target) at once: ``positions`` (P, L) [m] the
+    plans' positions (each non-decreasing, padded with inf past its ``lengths`` (P,) samples),
+    ``dt`` (P,) [s] their steps. Bit for bit the values of :func:`occupancy`."""
+    pos = positions[row]  # (M, L)
+    k = (pos < target[:, None]).sum(axis=1)  # = searchsorted: first sample at or past target
+    n = lengths[row]
+    kk = np.clip(k, 1, positions.shape[1] - 1)
+    m = np.arange(len(row))
+    p0, p1 = pos[m, kk - 1], pos[m, kk]
+    with np.errstate(invalid="ignore"):  # padded (inf) samples where k >= n: not used
+        t = dt[row] * (kk - 1 + (target - p0) / np.maximum(p1 - p0, 1e-9))
+    return np.where(k == 0, 0.0, np.where(k >= n, math.inf, t))
 
 
 def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:
@@ -147,6 +168,8 @@ class SafetyFilter:
         leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
         plans = dict(plans)
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
+        pairs, on = relations.pairs, np.array(chosen, bool)
+        guarded = np.flatnonzero(on[pairs.ri] & on[pairs.rj]) if len(pairs) else np.zeros(0, np.intp)
         for _pass in range(2):
             for vid in clear:
                 if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:
@@ -154,10 +177,37 @@ class SafetyFilter:
             for vid, limit in cap.items():
                 if vid in plans and limit < float(plans[vid].accelerations[0]):
                     plans[vid] = braking_plan(plans[vid], max(limit, self.problem.a_min))
-            for lat in relations.lateral:
-                if chosen[lat.ri] and chosen[lat.rj]:
-                    self._guard(world, relations, lat, plans, cap, clear)
+            for m in guarded[self._maybe_close(world, relations, guarded, plans)]:
+                self._guard(world, relations, pairs.at(m), plans, cap, clear)
         return self._enforce(decisions, cap, leader_cap, clear)
+
+    def _maybe_close(self, world: World, relations: Relations, guarded: np.ndarray,
+                     plans: Mapping[str, Plan]) -> np.ndarray:
+        """(len(guarded),) bool for the lateral pairs ``guarded`` (indices into
+        ``relations.pairs``): False where :meth:`_guard` would find at once that the plans
+        keep the crossing clear (it does nothing then), computed for all pairs together with
+        :func:`occupancy_times`; True where it must look (also for a pair with a plan missing or
+        a plan whose positions go backwards, which it checks itself)."""
+        if len(guarded) < VECTOR_MIN_PAIRS:  # the per-pair guard's own check is cheaper
+            return np.ones(len(guarded), bool)
+        pairs, vehicle = relations.pairs, relations.rows.vehicle
+        ki, kj = vehicle[pairs.ri[guarded]], vehicle[pairs.rj[guarded]]
+        ks = np.unique(np.concatenate([ki, kj]))
+        own = [self._plan_of(world, int(k), plans) for k in ks]
+        width = 1 + max((len(p.positions) for p in own if p is not None), default=1)
+        pos = np.full((len(ks), width), math.inf)  # [m] padded past each plan
+        lengths, dt = np.zeros(len(ks), np.intp), np.ones(len(ks))
+        usable = np.zeros(len(ks), bool)
+        for n, p in enumerate(own):
+            if p is not None and bool(np.all(np.diff(p.positions) >= 0.0)):
+                pos[n, :len(p.positions)], lengths[n], dt[n], usable[n] = p.positions, len(p.positions), p.dt, True
+        a, b = np.searchsorted(ks, ki), np.searchsorted(ks, kj)
+        zone_i, zone_j = pairs.zone_i[guarded], pairs.zone_j[guarded]  # [m]
+        in_i, out_i = occupancy_times(pos, lengths, dt, a, zone_i[:, 0]), occupancy_times(pos, lengths, dt, a, zone_i[:, 1])
+        in_j, out_j = occupancy_times(pos, lengths, dt, b, zone_j[:, 0]), occupancy_times(pos, lengths, dt, b, zone_j[:, 1])
+        gap = self.settings.safety_time_gap  # [s]
+        apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
+        return ~(apart & usable[a] & usable[b])
 
     def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions) -> dict[str, float]:
         """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed."""

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from intersection_cosim.control.safety import braking_plan, occupancy
+from intersection_cosim.control.safety import braking_plan, occupancy, occupancy_times
 from intersection_cosim.games.problem import Plan
 
 
@@ -30,3 +30,56 @@ def test_occupancy_edges_already_in_and_beyond_the_horizon():
     assert t_in == pytest.approx(2.0) and t_out == math.inf  # passes it after the horizon
     stopped = braking_plan(plan, -4.0)  # stops after 3.1 m
     assert occupancy(stopped, 54.0, 60.0) == (math.inf, math.inf)
+
+
+def test_occupancy_times_equal_occupancy_bit_for_bit():
+    """The vectorised occupancy of the filter's first look equals occupancy() exactly: plans of
+    different lengths (padded with inf), standing stretches, targets behind, inside and beyond."""
+    rng = np.random.default_rng(7)
+    plans = []
+    for _ in range(40):
+        n = int(rng.choice([20, 30, 40]))
+        a = rng.uniform(-3.0, 2.0, n)  # [m/s^2]
+        plans.append(braking_plan(Plan.from_accelerations(100.0, 2.0, a, 0.1), -2.0) if rng.random() < 0.3
+                     else Plan.from_accelerations(100.0, float(rng.uniform(0.0, 10.0)), np.clip(a, 0.0, None), 0.1))
+    width = max(len(p.positions) for p in plans)
+    pos = np.full((len(plans), width), math.inf)
+    for n, p in enumerate(plans):
+        pos[n, :len(p.positions)] = p.positions
+    lengths = np.array([len(p.positions) for p in plans])
+    dt = np.array([p.dt for p in plans])
+    row = rng.integers(0, len(plans), 500)
+    target = rng.uniform(95.0, 140.0, 500)  # [m]
+    target[:20] = pos[row[:20], 3]  # exactly on a sample
+    got = occupancy_times(pos, lengths, dt, row, target)
+    want = [occupancy(plans[r], t, t)[0] for r, t in zip(row, target)]
+    assert got.tolist() == want
+    assert (got == 0.0).any() and np.isinf(got).any() and ((got > 0.0) & np.isfinite(got)).any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_vectorised_first_look_changes_no_decision(paths, net_file, seed, monkeypatch):
+    """A dense random world decided with the filter's vectorised first look at every pair and
+    with the per-pair guard alone: the same accelerations, bit for bit."""
+    import time
+
+    from intersection_cosim.control import safety
+    from intersection_cosim.control.base import ControlContext
+    from intersection_cosim.control.game import GameController
+    from intersection_cosim.models.settings import ModelSettings
+    from intersection_cosim.network.movements import paper_movements
+    from tests.control.test_relations_vectorised import _random_world
+
+    def decide(min_pairs):
+        monkeypatch.setattr(safety, "VECTOR_MIN_PAIRS", min_pairs)
+        c = GameController("nash")
+        c.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
+                               settings=None, etm=True))
+        world = _random_world(paths, np.random.default_rng(seed), 40)
+        return c.decide(world, time.perf_counter() + 60.0), c.safety
+
+    vec, f_vec = decide(0)
+    loop, f_loop = decide(10 ** 9)
+    assert vec.accel == loop.accel and len(vec.accel) == 40
+    assert (f_vec.filtered, f_vec.cleared) == (f_loop.filtered, f_loop.cleared)
+    assert f_vec.filtered > 0  # the filter had crossings to guard
