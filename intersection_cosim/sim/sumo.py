@@ -248,7 +248,10 @@ class SumoSimulation:
         s = old.lane_starts[old.lanes.index(lane)] + self.api.vehicle.getLanePosition(vid)
         new_lane, new_pos = target.lane_at(min(s, target.s_exit - 0.01))
         self.api.vehicle.moveTo(vid, new_lane, new_pos)
-        self.switched.add(vid)
+        if info.intended_path is not None:
+            # a route of the generated net ends exit_distance into the exit lane, which moveTo
+            # forgets; a route on a net file ends where the user's route does, which it keeps
+            self.switched.add(vid)
         self.current_path[vid] = target_id
         self.states[vid] = self._read(vid)
 
