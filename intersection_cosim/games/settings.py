@@ -25,13 +25,17 @@ class ProblemSettings:
     horizon: float = 3.0  # [s] planning horizon T of the open-loop game (Eq. 10: t in [0, T])
     dt: float = 0.1  # [s] step of the acceleration sequence; N = horizon / dt decisions per player
     a_min: float = -4.0  # [m/s^2] hardest braking a player may plan (U^i of Eq. 11)
-    a_max: float = 2.5  # [m/s^2] strongest acceleration a player may plan (U^i of Eq. 11)
+    a_max: float = 2.0  # [m/s^2] strongest acceleration a player may plan (U^i of Eq. 11; issue 20)
     comfort_brake: float = 2.0  # [m/s^2] deceleration of the safe fallback plan (brake to a stop)
     # Comfort regulariser, added to every player's cost (not in the paper): each best response is
     # strictly convex in the accelerations even when kappa = 0 and no interaction is active (then
     # the paper's running cost is constant and every plan is optimal). Cost per step
     # dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), in the units of J_e.
-    w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration
+    w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration at kappa = 0.5
+    # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
+    # max(0, w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive driver accelerates and brakes
+    # harder and a cautious one keeps its plan smoother (0: the same for all; 0.15 calibrated, issue 20)
+    w_accel_kappa: float = 0.15
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
 
     @property
@@ -41,7 +45,7 @@ class ProblemSettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "horizon", "dt", "a_max", "comfort_brake")
-        problems += non_negative(self, "w_accel", "w_jerk")
+        problems += non_negative(self, "w_accel", "w_accel_kappa", "w_jerk")
         if not self.a_min < 0:
             problems.append(("a_min", "must be < 0"))
         if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:
