@@ -50,7 +50,7 @@ class SafetySettings:
     """The safety filter on the controller's accelerations (not in the paper; control/safety.py)."""
 
     safety_filter: bool = True  # [-] check every applied acceleration against collision
-    safety_time_gap: float = 0.3  # [s] least time between two vehicles' occupancy of a conflict point
+    safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
     yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
     #                          junction: "tcp" = smaller time to the crossing at the current speed

@@ -25,7 +25,7 @@ class ProblemSettings:
     horizon: float = 3.0  # [s] planning horizon T of the open-loop game (Eq. 10: t in [0, T])
     dt: float = 0.1  # [s] step of the acceleration sequence; N = horizon / dt decisions per player
     a_min: float = -4.0  # [m/s^2] hardest braking a player may plan (U^i of Eq. 11)
-    a_max: float = 2.0  # [m/s^2] strongest acceleration a player may plan (U^i of Eq. 11; issue 20)
+    a_max: float = 2.5  # [m/s^2] strongest acceleration a player may plan (U^i of Eq. 11)
     comfort_brake: float = 2.0  # [m/s^2] deceleration of the safe fallback plan (brake to a stop)
     # Comfort regulariser, added to every player's cost (not in the paper): each best response is
     # strictly convex in the accelerations even when kappa = 0 and no interaction is active (then
@@ -34,8 +34,8 @@ class ProblemSettings:
     w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration at kappa = 0.5
     # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
     # max(0, w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive driver accelerates and brakes
-    # harder and a cautious one keeps its plan smoother (0: the same for all; 0.15 calibrated, issue 20)
-    w_accel_kappa: float = 0.15
+    # harder and a cautious one keeps its plan smoother (0: the same for all; issue 20 measured 0.15, docs/design.md)
+    w_accel_kappa: float = 0.0
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
 
     @property

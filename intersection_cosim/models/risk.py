@@ -46,12 +46,10 @@ the end of the shared stretch. Unlike the paper's definition of a following conf
 require the follower to be faster: a short headway is a risk even at equal speed, and J_log's own
 gamma_log (Eq. 18) already ignores a leader that is pulling away.
 
-Calibration of Gamma_sf (``ModelSettings.gamma_sf`` = 10, units a0 m^2; 40 before issue 20): with
-the default t_p = 4 s, a0 = 1 and kappa = 0.5 (a = 1.65) the trigger fires for arrival-time gaps
-below 4 - (10 / (1.65 v^2))^0.5 s: 3.5 s at 5 m/s, 3.75 s at 10 m/s, 3.2 s at 3 m/s; a vehicle
-slower than (10 / (1.65 t_p^2))^0.5 = 0.6 m/s arriving second does not trigger it (at 40: 3.0,
-3.5, 2.4 s and 1.2 m/s; the lower value starts a cautious vehicle's game while it can still
-slow by its own plan, docs/design.md). In the paper's Case 1 A
+Calibration of Gamma_sf (``ModelSettings.gamma_sf`` = 40, units a0 m^2): with the default
+t_p = 4 s, a0 = 1 and kappa = 0.5 (a = 1.65) the trigger fires for arrival-time gaps below
+4 - (40 / (1.65 v^2))^0.5 s: 3.0 s at 5 m/s, 3.5 s at 10 m/s, 2.4 s at 3 m/s; a vehicle slower
+than (40 / (1.65 t_p^2))^0.5 = 1.2 m/s arriving second does not trigger it. In the paper's Case 1 A
 at constant speed V1 reaches its conflict point with V2 0.42 s before V2 (Gamma_cp = 429) and the
 one with V3 0.51 s before V3 (Gamma_cp = 502): each pair triggers as soon as its later vehicle is
 within t_p of the point (V1 then about 3.5 s, 19 m, from it) and stays triggered until V1 has

@@ -25,8 +25,7 @@ class ModelSettings:
     b: float = 0.1  # [-] widening slope of the field with arc length when delta_f = 0 (Eq. 8)
     c: float = 0.5  # [1/rad] gain of |delta_f| in the widening (Eq. 8)
     # [s] preview time of the prediction and of the field (Eq. 7): long enough that the trigger
-    # sees the paper's conflict points (20-27 m ahead) from the first second (4.5 s starts the
-    # yielding vehicle's game before the filter brakes it, but costs the ETM half its saving)
+    # sees the paper's conflict points (20-27 m ahead) from the first second
     t_p: float = 4.0
     # The prediction is along the paths (models/prediction.py), in closed form: no sampled rollout
     # or polynomial fit reads these two. They stay so scenario files that set them still load and
@@ -38,16 +37,16 @@ class ModelSettings:
     # forms agree to 1e-3 relative over a 42 m preview (14 m/s * 3 s); at 1e-3 they differ by 10 %.
     straight_steer: float = 1e-6
     # [a0 m^2] safe value of Gamma_cp; the ETM triggers a game above it (Eqs. 9, 39). Calibration in
-    # models/risk.py: with kappa = 0.5 and t_p = 4 s it fires for arrival-time gaps below ~3.5 s at
-    # 5 m/s, so a cautious vehicle's game starts while it can still slow by its own plan (issue 20).
-    gamma_sf: float = 10.0
+    # models/risk.py: with kappa = 0.5 and t_p = 4 s it fires for arrival-time gaps below ~3 s at
+    # 5 m/s.
+    gamma_sf: float = 40.0
 
     # --- running cost, Eqs. 13-24 ---
     eps: float = 0.25  # [s^2] epsilon in J_log and J_lat (Eqs. 15, 19)
     k_log: float = 1.0  # [-] weight of longitudinal safety J_log (Eq. 14)
     # [-] weight of lateral safety J_lat (Eq. 14): strong enough against J_e at TTC_lat ~2 s for
-    # the games to trade speed for margin by kappa (calibrated with t_p, gamma_sf; issue 20)
-    k_lat: float = 8.0
+    # the games to trade speed for margin by kappa (calibrated with t_p)
+    k_lat: float = 5.0
     k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
     k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23; calibrated on Case 2)
     k_phi_lk: float = 0.5  # [1/rad^2] weight of the heading error in J_lk (Eq. 23)

@@ -15,7 +15,6 @@ from intersection_cosim.control.players import leader_trajectory
 from intersection_cosim.control.relations import step_relations
 from intersection_cosim.control.safety import occupancy
 from intersection_cosim.control.settings import GameControllerSettings, PolicySettings, SafetySettings
-from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.settings import ModelSettings
 from tests.control.conftest import make_world
 
@@ -159,16 +158,10 @@ def test_two_vehicles_stopped_in_each_others_zones_do_not_drive_off_together(con
     assert len(moving) == 1 and len(held) == 1, d.accel
 
 
-# The filter's rules below are tested with the 0.5 s gap they were written against (the default
-# is 0.3 s since issue 20): at 0.3 s these constructed plans would pass the check unguarded.
-GAP_05 = GameControllerSettings(safety=SafetySettings(safety_time_gap=0.5))
-
-
-def test_a_vehicle_that_left_the_junction_still_guards_its_rear(paths, net_file):
+def test_a_vehicle_that_left_the_junction_still_guards_its_rear(controller, paths):
     """S's front has passed the junction exit (SUMO drives it again, no plan of ours), but its
     rear is still in the crossing: E, standing before its zone with a plan to drive off, must
     wait (a collision at 1800 veh/h unbalanced, seed 2, t = 97.45 s)."""
-    controller = _nash_controller(paths, net_file, settings=GAP_05)
     t = controller.table
     cross = np.argwhere((t.kind == 2) & (t.zone_out > t.s_exit[:, None] + 1.0))
     q, p = (int(x) for x in cross[0])  # S on path q, E on path p
@@ -310,10 +303,7 @@ def _weak_lateral_controller(paths, net_file):
     """A Nash controller whose games weigh J_lat lightly (k_lat = 1): their plans pass a crossing
     closer than safety_time_gap, which the filter must then enforce (at the default k_lat the
     yielding player already brakes at a_min in its equilibrium plan)."""
-    # the pre-issue-20 game (a_max 2.5 m/s^2, one comfort weight for all), under which this
-    # pair's game lets A pass first
-    old_game = ProblemSettings(a_max=2.5, w_accel_kappa=0.0)
-    return _nash_controller(paths, net_file, ModelSettings(k_lat=1.0), dataclasses.replace(GAP_05, game=old_game))
+    return _nash_controller(paths, net_file, ModelSettings(k_lat=1.0))
 
 
 def _pair_a_game_lets_pass_first(paths, net_file):

@@ -13,7 +13,7 @@ def test_defaults_are_valid():
     s = ModelSettings()
     assert s.check() == []
     assert s.wheelbase == pytest.approx(2.7)
-    assert (s.gamma_sf, s.straight_steer, s.prediction_dt, s.prediction_degree) == (10.0, 1e-6, 0.1, 3)
+    assert (s.gamma_sf, s.straight_steer, s.prediction_dt, s.prediction_degree) == (40.0, 1e-6, 0.1, 3)
 
 
 def test_every_field_settable_from_the_model_table():

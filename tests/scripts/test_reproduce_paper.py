@@ -59,7 +59,7 @@ def test_other_trigger_model_or_versions_are_rerun(rp, tmp_path):
     old = json.loads((run / "summary.json").read_text())
     del old["settings"]["model"]["k_lat"]  # a folder of a version before the field existed
     (run / "summary.json").write_text(json.dumps(old))
-    assert "model.k_lat (none) -> 8.0" in rp.rerun_reason(run, settings, VERSIONS)
+    assert "model.k_lat (none) -> 5.0" in rp.rerun_reason(run, settings, VERSIONS)
     (run / "summary.json").write_text("{not json")
     assert rp.rerun_reason(run, settings, VERSIONS) == "unreadable summary.json"
     assert rp.rerun_reason(tmp_path / "absent", settings, VERSIONS) == "no finished run"
