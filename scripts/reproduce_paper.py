@@ -2,7 +2,8 @@
 
 Plays scenarios/case1_{A,B,C,D}.toml and case2_{A,B}.toml under the nash and stackelberg
 controllers, each with the event trigger (ETM) on and off, one CLI process per run (libsumo holds one
-simulation per process), then writes table_ii.csv, table_iv.csv, travel_times.csv, orderings.csv,
+simulation per process), then writes table_ii.csv, table_iv.csv (the paper's min TTC beside ours), ratios.csv (each
+scenario's margins against A, the paper's and ours), travel_times.csv, orderings.csv,
 figures/*.png and, last, report.md.
 
     python scripts/reproduce_paper.py --out report [--workers 2] [--quick] [--budget-ms 2000]
@@ -54,6 +55,15 @@ PAIRS = {"case1": ["V1-V2", "V1-V3"], "case2": ["V1-V2", "V1-V3", "V3-V4"]}
 MIN_CUT = 0.40  # the ETM must cut the mean compute time per step by at least this
 SE_SLACK = 0.2  # [s] Stackelberg min TTC may be this much below Nash's
 BUDGET_MS = 2000.0  # [ms] default control-step budget of the paper runs (module docstring)
+# [s] the paper's min TTC, Tables II and IV: (case, scenario, solver, pair) -> value
+PAPER_TTC = {
+    **{("case1", s, lab, pair): v for lab, row in (("NE", (3.71, 3.57, 43.62, 10.15, 5.37, 6.81, 0.70, 6.87)),
+                                                 ("SE", (3.82, 3.87, 46.58, 10.60, 5.43, 6.85, 0.80, 7.15)))
+       for (s, pair), v in zip([(s, p) for s in "ABCD" for p in ("V1-V2", "V1-V3")], row)},
+    **{("case2", s, lab, pair): v for lab, row in (("NE", (2.53, 2.39, 30.39, 5.74, None, 18.42)),
+                                                 ("SE", (3.93, 2.50, 30.39, 6.28, None, 19.04)))
+       for (s, pair), v in zip([(s, p) for s in "AB" for p in ("V1-V2", "V1-V3", "V3-V4")], row)},
+}
 
 
 def run_name(case: str, ctrl: str, etm: bool) -> str:
@@ -206,10 +216,32 @@ def ttc_table(runs: Runs, cases: list[str], family: str) -> pd.DataFrame:
             p = runs.pairs(case, ctrl)
             for pair in PAIRS[family]:
                 row = None if p is None else p.loc[p["pair"] == pair]
-                vals = ([row[c].iloc[0] for c in ("min_ttc", "min_ttc_ssm", "pet_ssm")]
-                        if row is not None and not row.empty else ["/"] * 3)
-                rows.append([case.split("_")[1], label, pair, *vals])
-    return pd.DataFrame(rows, columns=["scenario", "solver", "pair", "min_ttc", "min_ttc_ssm", "pet_ssm"])
+                vals = ([row[c].iloc[0] if c in row else np.nan for c in ("min_ttc", "pet", "min_ttc_ssm", "pet_ssm")]
+                        if row is not None and not row.empty else ["/"] * 4)
+                paper = PAPER_TTC.get((family, case.split("_")[1], label, pair))
+                rows.append([case.split("_")[1], label, pair, "/" if paper is None else paper, *vals])
+    return pd.DataFrame(rows, columns=["scenario", "solver", "pair", "paper_min_ttc", "min_ttc", "pet",
+                                       "min_ttc_ssm", "pet_ssm"])
+
+
+def ratio_table(runs: Runs, cases: list[str]) -> pd.DataFrame:
+    """Each scenario's margin against scenario A of its case: the paper's min TTC ratio beside ours
+    (min TTC and PET), per equilibrium and pair (issue 20's measure of how strongly kappa acts)."""
+    rows = []
+    for case in cases:
+        family, scen = case.split("_")
+        if scen == "A" or f"{family}_A" not in cases:
+            continue
+        for ctrl, label in CONTROLLERS.items():
+            for pair in PAIRS[family]:
+                paper = [PAPER_TTC.get((family, x, label, pair)) for x in (scen, "A")]
+                ours = [[runs.ttc(f"{family}_{x}", ctrl, pair, col) for x in (scen, "A")] for col in ("min_ttc", "pet")]
+                ratio = [a / b if a is not None and b else None for a, b in (paper, *ours)]
+                if all(r is None for r in ratio):
+                    continue
+                rows.append([family, f"{scen}/A", label, pair, *["/" if r is None else r for r in ratio]])
+    return pd.DataFrame(rows, columns=["case", "ratio", "solver", "pair", "ratio_paper_min_ttc", "ratio_min_ttc",
+                                       "ratio_pet"])
 
 
 def travel_times(runs: Runs, cases: list[str]) -> pd.DataFrame:
@@ -460,7 +492,11 @@ def main(argv: list[str] | None = None) -> int:
             convergence_figure(runs, "case1_A", figdir / "convergence_case1_A.png")]
     figs += run_figures(runs, cases, figdir)
     tt_on = tt[tt["etm"]].drop(columns="etm")
-    write_report(out, cases, [("Table II (Case 1): min TTC", t2), ("Table IV (Case 2): min TTC", t4),
+    ratios = ratio_table(runs, cases)
+    ratios.to_csv(out / "ratios.csv", index=False)
+    write_report(out, cases, [("Table II (Case 1): min TTC and PET, the paper's beside ours", t2),
+                              ("Table IV (Case 2): min TTC and PET, the paper's beside ours", t4),
+                              ("Margins against scenario A: the paper's min TTC ratio beside ours", ratios),
                               ("Travel times (ETM on)", tt_on), ("Orderings", order)],
                  figs, failures, time.perf_counter() - t0, args.budget_ms, *defaults(runs, cases))
     print(order.to_string(index=False))

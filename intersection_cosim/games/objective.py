@@ -52,6 +52,12 @@ def _rcumsum(x: np.ndarray) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=256)
+def comfort_weight(problem, kappa: float) -> float:
+    """[s^4/m^2] a player's weight of the squared acceleration, by its aggressiveness ``kappa``
+    (``ProblemSettings.w_accel`` at kappa = 0.5, falling by ``w_accel_kappa`` per unit of kappa)."""
+    return max(0.0, problem.w_accel + problem.w_accel_kappa * (0.5 - kappa))
+
+
 def _quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float) -> np.ndarray:
     """Hessian of the exact quadratic terms: sum w_e (v - v_max)^2 + dt w_accel a^2 + dt jerk_w da^2."""
     hm = horizon_matrices(n, dt)
@@ -85,6 +91,7 @@ class PlayerObjective:
         self.w_log = dt * (1.0 - self.kappa) * ms.k_log  # [s] weight of J_log per step
         self.w_e = dt * self.kappa * ms.k_e  # [s^3/m^2] weight of (v - v_max)^2 per step
         self.jerk_w = gs.problem.w_jerk / (dt * dt)  # [s^4/m^2] weight of (a_k - a_{k-1})^2
+        self.w_acc = comfort_weight(gs.problem, self.kappa)  # [s^4/m^2] weight of a^2
         self._floor, self._clr, self._eps = ms.tcp_speed_floor, ms.conflict_clearance, ms.eps
         # lateral terms: (other, s_cp own, s_cp other); following terms where p follows: (leader, offset)
         self.lat_terms: list[tuple[int, float, float]] = []
@@ -108,7 +115,7 @@ class PlayerObjective:
         if self.w_log <= 0.0:
             self.log_terms = []
         # exact quadratic part (efficiency + comfort): 1/2 a^T Q a + b0^T a + const
-        self.Q = _quadratic_part(self.n, dt, self.w_e, gs.problem.w_accel, self.jerk_w)
+        self.Q = _quadratic_part(self.n, dt, self.w_e, self.w_acc, self.jerk_w)
         self.b0 = (2.0 * self.w_e * (self.v0 - self.v_max)) * hm.dtLv_colsum
         self._lat: list = []  # per lateral term: (s_cp own, TCP of the other (N,), other not passed (N,))
         self._log: list = []  # per following term: (leader s in own frame minus length (N,), leader v (N,))
@@ -190,10 +197,10 @@ class PlayerObjective:
         run = running_cost(self.kappa, j_log, j_lat, self.j_lk, efficiency_cost(v, self.v_max, ms.k_e), ms)
         if a.ndim == 1:
             da = a[1:] - a[:-1]
-            return self.dt * (float(run.sum()) + self.gs.problem.w_accel * float(a @ a)
+            return self.dt * (float(run.sum()) + self.w_acc * float(a @ a)
                               + self.jerk_w * float(da @ da))
         da = a[:, 1:] - a[:, :-1]
-        return self.dt * (run.sum(axis=-1) + self.gs.problem.w_accel * (a * a).sum(axis=-1)
+        return self.dt * (run.sum(axis=-1) + self.w_acc * (a * a).sum(axis=-1)
                           + self.jerk_w * (da * da).sum(axis=-1))
 
     # ------------------------------------------------------------------ convex model

@@ -31,7 +31,11 @@ class ProblemSettings:
     # strictly convex in the accelerations even when kappa = 0 and no interaction is active (then
     # the paper's running cost is constant and every plan is optimal). Cost per step
     # dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), in the units of J_e.
-    w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration
+    w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration at kappa = 0.5
+    # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
+    # max(0, w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive driver accelerates and brakes
+    # harder and a cautious one keeps its plan smoother (0: the same for all; issue 20 measured 0.15, docs/design.md)
+    w_accel_kappa: float = 0.0
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
 
     @property
@@ -41,7 +45,7 @@ class ProblemSettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "horizon", "dt", "a_max", "comfort_brake")
-        problems += non_negative(self, "w_accel", "w_jerk")
+        problems += non_negative(self, "w_accel", "w_accel_kappa", "w_jerk")
         if not self.a_min < 0:
             problems.append(("a_min", "must be < 0"))
         if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:

@@ -58,6 +58,9 @@ def write_report(folder: str | Path) -> Path:
 # (name or prefix, header, decimals): decimals None = an integer count; a prefix ends in "_" and the
 # rest of the column name (a vehicle, a pair "V1_V2") goes into the header.
 COLUMN_FORMATS = (
+    ("paper_min_ttc", "min TTC, paper [s]", 2), ("pet", "PET, ours [s]", 2),
+    ("ratio_paper_min_ttc", "min TTC ratio, paper [-]", 2), ("ratio_min_ttc", "min TTC ratio, ours [-]", 2),
+    ("ratio_pet", "PET ratio, ours [-]", 2),
     ("run_id", "run", "text"), ("seed", "seed", "text"), ("exit_lane", "exit lane", "text"),
     ("vehicle_a", "vehicle a", "text"), ("vehicle_b", "vehicle b", "text"), ("kappa_", "κ {} [-]", 2), ("kappa", "κ [-]", 2),
     ("mean_travel_time", "mean travel time [s]", 2), ("travel_time_mean", "travel time, mean [s]", 2),

@@ -12,11 +12,12 @@ import pandas as pd
 
 from intersection_cosim.models.cost import lateral_ttc, longitudinal_ttc, time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.conflicts import conflict_zone, point_zone, swept_area
 from intersection_cosim.network.paths import MovementPath
 
 VEHICLE_COLUMNS = ["vehicle", "approach", "movement", "kappa", "depart", "arrival", "travel_time",
                    "time_loss", "exit_lane", "collided"]
-PAIR_COLUMNS = ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "min_ttc_ssm", "pet_ssm", "game_steps"]
+PAIR_COLUMNS = ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "pet_ssm", "game_steps"]
 
 
 def vehicle_table(infos: dict, tripinfo: pd.DataFrame, exit_lanes: dict[str, str],
@@ -77,6 +78,62 @@ def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSetting
     return float(ttc.min()) if ttc.size else np.nan
 
 
+def crossing_time(time: np.ndarray, s: np.ndarray, s_mark: float) -> float:
+    """[s] the first time the arc length ``s`` [m] reaches ``s_mark`` [m], interpolated linearly
+    between the recorded steps ``time`` [s]; NaN if it never does (or did from the first step on,
+    when the moment is unknown)."""
+    reached = np.flatnonzero(s >= s_mark)
+    if not reached.size or reached[0] == 0:
+        return np.nan
+    k = reached[0]
+    ds = s[k] - s[k - 1]
+    frac = (s_mark - s[k - 1]) / ds if ds > 0 else 1.0
+    return float(time[k - 1] + frac * (time[k] - time[k - 1]))
+
+
+def post_encroachment_time(a: pd.DataFrame, b: pd.DataFrame, zone_a: tuple[float, float],
+                           zone_b: tuple[float, float]) -> float:
+    """[s] PET of one conflicting pair: from the first vehicle's rear leaving the crossing zone to
+    the second's front entering it.
+
+    ``a``, ``b``: each vehicle's own trajectory (index time [s], column ``s`` [m] front arc
+    length); ``zone_a`` / ``zone_b`` [m]: the front arc lengths between which each body overlaps
+    the other's swept area (:func:`network.conflicts.conflict_zone`), so the front at
+    ``zone_out`` is the rear leaving it. Zero when the two were in the zone at once; NaN when a
+    vehicle's entry or exit was not recorded.
+    """
+    ta, sa = a.index.to_numpy(float), a["s"].to_numpy(float)
+    tb, sb = b.index.to_numpy(float), b["s"].to_numpy(float)
+    in_a, out_a = crossing_time(ta, sa, zone_a[0]), crossing_time(ta, sa, zone_a[1])
+    in_b, out_b = crossing_time(tb, sb, zone_b[0]), crossing_time(tb, sb, zone_b[1])
+    first_a = in_a <= in_b
+    pet = in_b - out_a if first_a else in_a - out_b
+    return float(max(pet, 0.0)) if np.isfinite(pet) else np.nan
+
+
+class _Zones:
+    """Crossing zones per ordered path pair, with each path's swept area built once (per table)."""
+
+    def __init__(self, paths: dict[str, MovementPath], model: ModelSettings):
+        self.paths, self.model = paths, model
+        self.swept: dict[str, object] = {}
+        self.zones: dict[tuple[str, str], tuple[float, float]] = {}
+
+    def zone(self, conflict) -> tuple[float, float] | None:
+        """[m] front arc lengths on ``conflict.path_a`` inside the crossing zone: the body-overlap
+        zone for a cross pair, the conflict point's occupancy (:func:`point_zone`) otherwise."""
+        key = (conflict.path_a, conflict.path_b)
+        if key not in self.zones:
+            length, width = self.model.vehicle_length, self.model.vehicle_width
+            zone = None
+            if conflict.kind == "cross" and all(p in self.paths for p in key):
+                if key[1] not in self.swept:
+                    self.swept[key[1]] = swept_area(self.paths[key[1]], length, width)
+                zone = conflict_zone(self.paths[key[0]], self.paths[key[1]], length, width, self.swept[key[1]])
+            self.zones[key] = zone if zone is not None else point_zone(conflict.s_a, length, width)
+        return self.zones[key]
+
+
 def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str, MovementPath],
                conflicts: dict, model: ModelSettings, ssm: pd.DataFrame,
                game_steps: dict[tuple[str, str], int]) -> pd.DataFrame:
@@ -85,6 +142,7 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
     spans = {vid: (g.index.min(), g.index.max()) for vid, g in by_vehicle.items()}
     ssm_key = ssm.assign(a=ssm[["ego", "foe"]].min(axis=1), b=ssm[["ego", "foe"]].max(axis=1)) if len(ssm) else None
     rows = []
+    zones = _Zones(paths, model)
     ids = sorted(by_vehicle)
     for i, va in enumerate(ids):
         for vb in ids[i + 1:]:
@@ -105,6 +163,8 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
             rows.append({"vehicle_a": va, "vehicle_b": vb, "conflict": conflict.kind,
                          "min_ttc": pair_min_ttc(conflict, a, b, model, _zone(paths, final_paths.get(va)),
                                                  _zone(paths, final_paths.get(vb))),
+                         "pet": post_encroachment_time(by_vehicle[va], by_vehicle[vb], zones.zone(conflict),
+                                                       zones.zone(conflict.swapped())),
                          "min_ttc_ssm": ttc_ssm,
                          "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0))})
     return pd.DataFrame(rows, columns=PAIR_COLUMNS)

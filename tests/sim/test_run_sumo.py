@@ -40,8 +40,8 @@ def test_csv_columns(case1a_run):
     assert cols["trajectories.csv"][:9] == ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role"]
     assert cols["vehicles.csv"] == ["vehicle", "approach", "movement", "kappa", "depart", "arrival",
                                     "travel_time", "time_loss", "exit_lane", "collided"]
-    assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "min_ttc_ssm", "pet_ssm",
-                                 "game_steps"]
+    assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm",
+                                 "pet_ssm", "game_steps"]
     assert cols["steps.csv"] == ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback",
                                      "deferred", "qp_solves"]
 
