@@ -18,10 +18,14 @@ Plausibility (on by default): a message is rejected when its stamp is not newer 
 sender's last accepted message, or its position or speed lies outside what the sender can have
 reached from that message within ``max_accel``, ``max_decel`` and ``max_speed`` (plus a
 tolerance for noise, :func:`reckoning.tolerances`). The sender is then predicted conservatively
-until a message is accepted again: at the far end of its reach interval from the last accepted
-state -- as far along its path and as fast as it can be (``s_hi``, ``v_hi``), that is nearer the
-crossing ahead and arriving there as early as physically possible, so the others yield to it
-earlier and its own commands brake for the crossing sooner.
+until a message is accepted again, from its last accepted state and the interval it can have
+reached since (:func:`reckoning.reach`), at the end of that interval that is worse for the
+others: a sender last seen before its stop line is shown as far along and as fast as it can be
+(``s_hi``, ``v_hi``) but no farther than the stop line -- arriving at the crossing as early as
+physically possible, so the others yield to it and its own commands brake for it soonest, and
+never believed past a crossing it may not have reached; a sender last seen inside the junction
+is shown braking as hard as it can (``s_lo``, ``v_lo``) -- the latest it can leave the crossings,
+so they stay occupied for the others.
 
 Down: the Decisions of a control step travel per vehicle (acceleration, exit lane, release) with
 the same latency and loss; a vehicle whose command is lost keeps its last one (the simulator
@@ -148,7 +152,10 @@ class Channel:
         if track.suspect:
             st = self.settings
             r = reach(m.s, m.v, age, st.max_accel, st.max_decel, st.max_speed)
-            return r.s_hi, r.v_hi, 0.0
+            s_stop = self.movements.paths[m.path_id].s_stop
+            if m.s < s_stop:  # approaching: as near the stop line and as fast as it can be
+                return min(r.s_hi, s_stop), r.v_hi, 0.0
+            return r.s_lo, r.v_lo, 0.0  # in the junction: as late to leave it as it can be
         s, v = dead_reckon(m.s, m.v, m.a, age)
         return s, v, (m.a if v > 0.0 else 0.0)
 
