@@ -36,10 +36,10 @@ def test_paper_case_with_latency_and_loss_has_no_collision(tmp_path, controller)
 
 
 def test_demand_window_with_latency_loss_and_a_detected_attack(tmp_path):
-    """north_straight_1.0 is in the network from 8.3 s to 31.3 s with seed 42 (its offset starts
+    """north_straight_1.0 is in the network from 46.75 s to 68.0 s with seed 42 and a 60 s window (its offset starts
     after its first messages: an offset present from the first message is consistent with itself)."""
     extra = ('[v2x]\nlatency = 0.1\nloss = 0.1\n[[v2x.attack]]\nvehicle = "north_straight_1.0"\n'
-             'kind = "position_offset"\nvalue = 5.0\nbegin = 11.0\nend = 21.0\n')
+             'kind = "position_offset"\nvalue = 5.0\nbegin = 50.0\nend = 60.0\n')
     scenario = _with_v2x(tmp_path, "demand_balanced_medium", extra, duration=60.0)
     out = tmp_path / "run"
     assert main(["run", str(scenario), "--out", str(out)]) == 0
