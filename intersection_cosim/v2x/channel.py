@@ -25,7 +25,11 @@ others: a sender last seen before its stop line is shown as far along and as fas
 physically possible, so the others yield to it and its own commands brake for it soonest, and
 never believed past a crossing it may not have reached; a sender last seen inside the junction
 is shown braking as hard as it can (``s_lo``, ``v_lo``) -- the latest it can leave the crossings,
-so they stay occupied for the others.
+so they stay occupied for the others. A sender whose messages have been rejected for ``resync``
+seconds in a row is taken at its newest message again (``resyncs`` counts it): without that a
+vehicle that a wrong track made stop short of where it was believed could never be accepted
+again (its true position behind every position the old track can reach), and the junction
+would lock.
 
 Down: the Decisions of a control step travel per vehicle (acceleration, exit lane, release) with
 the same latency and loss; a vehicle whose command is lost keeps its last one (the simulator
@@ -46,8 +50,9 @@ from intersection_cosim.v2x.reckoning import dead_reckon, reach, tolerances
 from intersection_cosim.v2x.settings import V2XSettings
 
 EPS = 1e-9  # [s] time comparisons
+STOP_LINE_GAP = 0.5  # [m] a suspect sender approaching is held this far before its stop line (still "ready")
 COUNTERS = ("messages_sent", "messages_lost", "messages_silenced", "attacked", "attacked_lost", "rejected",
-            "missed", "false_rejections", "commands_sent", "commands_lost")
+            "missed", "false_rejections", "resyncs", "commands_sent", "commands_lost")
 
 
 @dataclasses.dataclass
@@ -56,6 +61,7 @@ class Track:
 
     accepted: StateMessage  # its last accepted message
     suspect: bool = False  # its newest message was rejected: predicted conservatively
+    rejected_since: float | None = None  # [s] stamp of the first of its messages rejected in a row
 
 
 class Channel:
@@ -119,6 +125,10 @@ class Channel:
         for msg in arrived:
             track = self.tracks.get(msg.sender)
             ok = track is None or not self.settings.plausibility or self.plausible(track.accepted, msg)
+            if not ok and track.rejected_since is not None and \
+                    msg.stamp - track.rejected_since >= self.settings.resync - EPS:
+                ok = True  # rejected for resync seconds: take its newest message again
+                self.counts["resyncs"] += 1
             if msg.attacked:
                 self.counts["missed" if ok else "rejected"] += 1
             elif not ok:
@@ -127,6 +137,8 @@ class Channel:
                 self.tracks[msg.sender] = Track(msg)
             else:
                 track.suspect = True
+                if track.rejected_since is None:
+                    track.rejected_since = msg.stamp
 
     def plausible(self, last: StateMessage, msg: StateMessage) -> bool:
         """Whether ``msg`` is consistent with the sender's ``last`` accepted message and its limits."""
@@ -153,8 +165,8 @@ class Channel:
             st = self.settings
             r = reach(m.s, m.v, age, st.max_accel, st.max_decel, st.max_speed)
             s_stop = self.movements.paths[m.path_id].s_stop
-            if m.s < s_stop:  # approaching: as near the stop line and as fast as it can be
-                return min(r.s_hi, s_stop), r.v_hi, 0.0
+            if m.s < s_stop:  # approaching: as near the stop line (still before it) and as fast as it can be
+                return min(r.s_hi, max(m.s, s_stop - STOP_LINE_GAP)), r.v_hi, 0.0
             return r.s_lo, r.v_lo, 0.0  # in the junction: as late to leave it as it can be
         s, v = dead_reckon(m.s, m.v, m.a, age)
         return s, v, (m.a if v > 0.0 else 0.0)

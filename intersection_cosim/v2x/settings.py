@@ -59,13 +59,14 @@ class V2XSettings:
     max_accel: float = 3.0  # [m/s^2] plausibility: strongest acceleration a vehicle can have
     max_decel: float = 4.5  # [m/s^2] plausibility: hardest braking (the vType's decel)
     max_speed: float = 20.0  # [m/s] plausibility: highest speed a vehicle can drive
+    resync: float = 2.0  # [s] a sender rejected this long in a row is taken at its newest message again
     attack: tuple[AttackSettings, ...] = ()  # the [[v2x.attack]] tables
 
     def check(self) -> list[tuple[str, str]]:
         problems = non_negative(self, "latency", "position_noise", "speed_noise", "period")
         if not 0.0 <= self.loss <= 1.0:
             problems.append(("loss", "must be in [0, 1]"))
-        problems += positive(self, "max_accel", "max_decel", "max_speed")
+        problems += positive(self, "max_accel", "max_decel", "max_speed", "resync")
         return problems
 
     @property

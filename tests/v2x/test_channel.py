@@ -171,3 +171,15 @@ def test_unknown_vehicles_are_left_out_and_other_fields_carry(movements):
     assert seen.ids == ["A"]  # B's first message is still under way
     assert seen.kappa.tolist() == [0.3] and seen.desired_speed.tolist() == [7.0]
     assert list(seen.exit_choices) == ["A"]
+
+
+def test_a_sender_rejected_for_resync_seconds_is_taken_again(movements):
+    """After a 5 m offset the true position lies behind what the spoofed track can reach: without a
+    resync the sender would stay rejected (and the junction could lock)."""
+    attack = AttackSettings(vehicle="A", kind="position_offset", value=5.0, begin=0.2, end=1.0)
+    ch = Channel(V2XSettings(attack=(attack,), resync=0.5), movements, PERIOD, seed=1)
+    times = [round(k * PERIOD, 6) for k in range(40)]
+    seen = drive(ch, movements, times, s0=20.0, v=8.0)
+    # taken at the spoofed state 0.5 s into the attack, then at the true one 0.5 s after it
+    assert ch.counts["rejected"] == 5 and ch.counts["resyncs"] == 2 and ch.counts["false_rejections"] == 5
+    assert not ch.tracks["A"].suspect and seen[-1].s[0] == pytest.approx(20.0 + 8.0 * times[-1])
