@@ -151,6 +151,8 @@ def run_metrics(run_dir: Path, vehicles: tuple[str, ...] | None = None) -> dict:
     for key, value in sorted(metrics.items()):  # metrics added to summary.json later get columns too
         if isinstance(value, (int, float)) or value is None:
             m[key] = value
+    for key, value in summary.get("v2x", {}).items():  # a run with a [v2x] link: its message counts
+        m[f"v2x_{key}"] = value
     return {k: (np.nan if v is None else v) for k, v in m.items()}
 
 

@@ -77,3 +77,5 @@ def test_compare_over_latency_writes_axis_columns_and_figures(tmp_path, capsys):
     summary = json.loads((out / "case1_A" / "runs" / runs[1] / "summary.json").read_text())
     assert summary["settings"]["v2x"]["latency"] == 0.3 and summary["v2x"]["messages_sent"] > 0
     assert json.loads((out / "case1_A" / SPEC_FILE).read_text())["axes"] == {"latency": [0.0, 0.3]}
+    sweep = pd.read_csv(out / "case1_A" / "sweep.csv")
+    assert sweep["v2x_messages_sent"].isna().tolist() == [True, False]  # latency 0: no link at all
