@@ -142,6 +142,7 @@ def _add_sweep(sub) -> None:
                        "--controller is the old spelling)")
     sweep.add_argument("--seeds", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: the scenario's)")
     sweep.add_argument("--out", required=True, help="sweep folder; rerunning the same command skips finished runs")
+    _add_axis_options(sweep)
     _add_executor_options(sweep)
 
 
@@ -156,7 +157,24 @@ def _add_compare(sub) -> None:
                          help="[ms] override every run's wall-time budget per control step")
     compare.add_argument("--out", required=True, help="comparison folder; rerunning the same command skips "
                          "finished runs")
+    _add_axis_options(compare)
     _add_executor_options(compare)
+
+
+def _add_axis_options(parser) -> None:
+    """One option per scenario axis (experiments/axes.py), e.g. ``--latency 0,0.1,0.2``."""
+    from intersection_cosim.experiments.axes import AXES
+
+    for axis in AXES.values():
+        parser.add_argument(axis.flag, dest=f"axis_{axis.name}", metavar="A,B,...",
+                            help=f"[{axis.unit}] values of {axis.field} (a comma-separated list): one run of "
+                            "each per controller and seed")
+
+
+def _axes(args) -> dict:
+    from intersection_cosim.experiments.axes import AXES
+
+    return {name: getattr(args, f"axis_{name}") for name in AXES}
 
 
 def _add_executor_options(parser) -> None:
@@ -241,7 +259,7 @@ def _interruptible(start) -> int:
 def _cmd_sweep(args) -> int:
     from intersection_cosim.experiments.sweep import make_spec, run_sweep
 
-    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds)
+    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds, axes=_axes(args))
     return _interruptible(lambda: run_sweep(spec, args.out, workers=args.workers,
                                             dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 
@@ -249,7 +267,7 @@ def _cmd_sweep(args) -> int:
 def _cmd_compare(args) -> int:
     from intersection_cosim.experiments.compare import make_specs, run_compare
 
-    specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration, args.budget_ms)
+    specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration, args.budget_ms, axes=_axes(args))
     return _interruptible(lambda: run_compare(specs, args.out, workers=args.workers,
                                               dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 

@@ -2,7 +2,7 @@
 
 Layer order, lowest first (a layer imports only layers below it, and modules of its own layer):
 
-    errors < settings < network < models < games < control < scenario < sim < results < report
+    errors < settings < network < models < games < control < v2x < scenario < sim < results < report
     < experiments < cli < __main__
 
 The package root (``intersection_cosim/__init__.py``) sets thread limits and ``__version__``
@@ -22,7 +22,7 @@ import intersection_cosim
 
 PACKAGE = "intersection_cosim"
 ROOT = Path(intersection_cosim.__file__).resolve().parent
-LAYERS = ("errors", "settings", "colors", "network", "models", "games", "control", "scenario", "sim", "results", "report",
+LAYERS = ("errors", "settings", "colors", "network", "models", "games", "control", "v2x", "scenario", "sim", "results", "report",
           "experiments", "cli", "__main__")
 PURE = ("models", "games")  # decision models and solvers: no simulator, no controller, no output
 NOT_IN_PURE = ("control", "sim", "scenario", "results", "report", "experiments", "cli")

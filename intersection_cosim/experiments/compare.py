@@ -31,12 +31,13 @@ import numpy as np
 import pandas as pd
 
 from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.axes import AXES
 from intersection_cosim.experiments.files import SSM_THRESHOLDS
 from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_spec, parse_controllers, run_sweep,
                                                   sweep_jobs)
 from intersection_cosim.results.layout import RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
-from intersection_cosim.report.figures import metric_vs_demand
+from intersection_cosim.report.figures import metric_vs_axis, metric_vs_demand
 from intersection_cosim.results.sweep_folder import SweepSpec
 from intersection_cosim.scenario import scenario_from_dict
 
@@ -66,6 +67,9 @@ FIGURE_METRICS = {
     "compute_ms_p95": "compute time per step, 95th percentile [ms]",
     "deadline_miss_share": "share of steps missing the deadline [-]",
 }
+# Metrics that get a figure against each scenario axis (--latency, --loss) when a comparison has axes.
+AXIS_FIGURE_METRICS = {key: FIGURE_METRICS[key] for key in ("travel_time_mean", "ssm_share_under_thresholds",
+                                                            "collisions")}
 
 
 @dataclasses.dataclass
@@ -83,7 +87,8 @@ class CompareOutcome:
 
 
 def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLERS, seeds: str = "1-5",
-               duration: float | None = None, budget_ms: float | None = None) -> list[SweepSpec]:
+               duration: float | None = None, budget_ms: float | None = None,
+               axes: dict[str, str | None] | None = None) -> list[SweepSpec]:
     """One sweep spec per scenario; every input checked (InputError) before any run starts."""
     if not scenarios:
         raise InputError("compare", "scenario", "", "give at least one scenario file")
@@ -92,7 +97,7 @@ def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLE
     except InputError as exc:
         raise InputError("--controllers", "controllers", controllers, exc.problem) from None
     overrides = {k: v for k, v in (("duration", duration), ("budget_ms", budget_ms)) if v is not None}
-    specs = [make_spec(s, None, controllers, seeds, overrides) for s in scenarios]
+    specs = [make_spec(s, None, controllers, seeds, overrides, axes) for s in scenarios]
     names = [s.scenario_name for s in specs]
     for name in names:
         if names.count(name) > 1:
@@ -130,8 +135,9 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
     ttc_thr, _, pet_thr = SSM_THRESHOLDS
     rows = []
     jobs = sweep_jobs(spec, out)
-    for controller in spec.controllers:
-        mine = [j for j in jobs if j.controller == controller and j.finished]
+    points = list(dict.fromkeys(j.axes for j in jobs))  # the scenario axes' value combinations, grid order
+    for controller, point in ((c, p) for c in spec.controllers for p in points):
+        mine = [j for j in jobs if j.controller == controller and j.axes == point and j.finished]
         veh, steps, ssm = [], [], []
         window = 0.0
         vehicles = arrived = collisions = late = 0
@@ -160,7 +166,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         cms = st["compute_ms"].to_numpy(float)
         misses = int(st["deadline_missed"].astype(bool).sum()) if len(st) else 0
         rows.append({
-            "scenario": spec.scenario_name, "demand_veh_h": demand, "controller": controller,
+            "scenario": spec.scenario_name, "demand_veh_h": demand, "controller": controller, **dict(point),
             "seeds": len(spec.seeds), "runs_ok": len(mine), "vehicles": vehicles, "arrived": arrived,
             "travel_time_mean": _mean(tt), "travel_time_p95": _quantile(tt, 0.95),
             "time_loss_mean": _mean(v["time_loss"].to_numpy(float)),
@@ -205,11 +211,18 @@ def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
     rows = []
     for spec in specs:
         rows += aggregate(spec, out / spec.scenario_name, demand_veh_h(spec))
-    table = pd.DataFrame(rows, columns=COLUMNS).sort_values(["demand_veh_h", "scenario"], kind="stable")
+    axes = list(dict.fromkeys(name for spec in specs for name, _ in spec.scenario_axes))
+    columns = COLUMNS[:3] + axes + COLUMNS[3:]
+    table = pd.DataFrame(rows, columns=columns).sort_values(["demand_veh_h", "scenario"], kind="stable")
     table = table.reset_index(drop=True)
     table.to_csv(out / TABLE_FILE, index=False, float_format="%.6g")
-    figures = [metric_vs_demand(table, metric, label, out / FIGURES_DIR / f"{metric}_vs_demand.png")
-               for metric, label in FIGURE_METRICS.items()]
+    if axes:  # one figure per axis and metric: the metric against the axis value
+        figures = [metric_vs_axis(table, metric, label, name, f"{name} [{AXES[name].unit}]",
+                                  out / FIGURES_DIR / f"{metric}_vs_{name}.png", tuple(a for a in axes if a != name))
+                   for name in axes for metric, label in AXIS_FIGURE_METRICS.items()]
+    else:
+        figures = [metric_vs_demand(table, metric, label, out / FIGURES_DIR / f"{metric}_vs_demand.png")
+                   for metric, label in FIGURE_METRICS.items()]
     write_report(out, table, figures)
     return table
 

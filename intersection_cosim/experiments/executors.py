@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Iterator
 
 from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.axes import apply_axes
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.results.layout import is_finished_run
 from intersection_cosim.scenario import scenario_from_dict, with_overrides
@@ -63,6 +64,7 @@ class Job:
     failed_file: str  # absolute path of the failure record
     # (field, value) overrides, e.g. (("duration", 60.0),); see OVERRIDE_TABLES
     overrides: tuple[tuple[str, float], ...] = ()
+    axes: tuple[tuple[str, float], ...] = ()  # (scenario axis, value) of experiments/axes.py, e.g. (("latency", 0.1),)
 
     def to_json(self) -> str:
         return json.dumps(dataclasses.asdict(self))
@@ -72,6 +74,7 @@ class Job:
         d = json.loads(text)
         d["kappa"] = tuple((str(v), float(k)) for v, k in d["kappa"])
         d["overrides"] = tuple((str(f), float(x)) for f, x in d.get("overrides", ()))
+        d["axes"] = tuple((str(n), float(x)) for n, x in d.get("axes", ()))
         return cls(**d)
 
     @property
@@ -93,7 +96,7 @@ def job_scenario(job: Job):
         scn = dataclasses.replace(scn, **{table: dataclasses.replace(getattr(scn, table), **{name: value})})
     kappa = dict(job.kappa)
     vehicles = tuple(dataclasses.replace(v, kappa=kappa[v.id]) if v.id in kappa else v for v in scn.vehicles)
-    return dataclasses.replace(scn, vehicles=vehicles)
+    return apply_axes(dataclasses.replace(scn, vehicles=vehicles), job.axes)
 
 
 def run_job(job: Job) -> dict:

@@ -46,6 +46,7 @@ from intersection_cosim.results.sumo_outputs import read_collisions, read_ssm, r
 from intersection_cosim.scenario.load import default_exit_lane, generate_flow_vehicles
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
+from intersection_cosim.v2x import Channel
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +95,7 @@ def resolved_settings(scn: Scenario) -> dict:
     controller, model and the controller's [controller.*] tables after defaults and overrides):
     what makes two runs the same run."""
     return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "controller": to_dict(scn.controller),
-            "model": to_dict(scn.model),
+            "model": to_dict(scn.model), "v2x": to_dict(scn.v2x),
             "controller_settings": to_dict(scn.controller_settings)
             if dataclasses.is_dataclass(scn.controller_settings) else None}
 
@@ -163,6 +164,7 @@ class _Simulated(NamedTuple):
     records: _Records
     final_paths: dict  # vehicle id -> the path it drove
     exit_lanes: dict  # vehicle id -> the exit lane it took
+    v2x_counts: dict | None = None  # the V2X channel's message counts (None: perfect information)
 
 
 class _Tables(NamedTuple):
@@ -184,6 +186,8 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     diagnostics = inputs.controller.diagnostics()
     _write_tables(folder, tables, simulated.records.game_rows, diagnostics)
     summary = _summary(scn, simulated.infos, tables, diagnostics, gui)
+    if simulated.v2x_counts is not None:
+        summary["v2x"] = dict(simulated.v2x_counts)
     with open(folder / RUN_MARKER, "w") as fh:
         json.dump(summary, fh, indent=2)
     return summary
@@ -197,9 +201,23 @@ def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     shutil.copyfile(net, folder / NET_FILE)
     rng = np.random.default_rng(s.seed)
     flow_vehicles = generate_flow_vehicles(scn, rng)
+    _check_attacked(scn, flow_vehicles)
     write_routes(folder / ROUTE_FILE, scn, movements.paths, flow_vehicles)
     write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn)
     return _Inputs(controller, net, movements, flow_vehicles)
+
+
+def _check_attacked(scn: Scenario, flow_vehicles: list[dict]) -> None:
+    """An attack on a flow's vehicle that this seed's draw does not insert is an InputError (the
+    loader has checked the id's form; only the draw knows which ``<flow id>.<k>`` exist)."""
+    drawn = {fv["id"] for fv in flow_vehicles}
+    flow_ids = {f.id for f in scn.flows}
+    for i, attack in enumerate(scn.v2x.attack):
+        head = attack.vehicle.rpartition(".")[0]
+        if head in flow_ids and attack.vehicle not in drawn and attack.vehicle not in {v.id for v in scn.vehicles}:
+            raise InputError(scn.source, f"v2x.attack[{i}].vehicle", attack.vehicle,
+                             f"flow {head!r} inserts {sum(fv['flow'] == head for fv in flow_vehicles)} vehicles "
+                             f"with seed {scn.scenario.seed} (ids {head}.0 ...)")
 
 
 def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
@@ -285,7 +303,9 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
             sim.switch_signals_off()
         if view is not None:
             view.attach(sim.api)
-        records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain)
+        channel = (Channel(scn.v2x, inputs.movements, scn.controller.period, s.seed)
+                   if scn.v2x.enabled else None)
+        records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain, channel)
         final_paths = {**sim.left_paths, **sim.current_path}
         exit_lanes = dict(sim.exit_lane_taken)
         infos = dict(sim.vehicles)  # with the vehicles of the user's own route file
@@ -293,7 +313,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
         sim.close()
         if view is not None:
             view.close()
-    return _Simulated(infos, records, final_paths, exit_lanes)
+    return _Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None)
 
 
 def _signals_off(scn: Scenario, controller: Controller) -> bool:
@@ -302,21 +322,36 @@ def _signals_off(scn: Scenario, controller: Controller) -> bool:
     return not scn.network.generated and scn.network.signals == "off" and controller.junction_type != "traffic_light"
 
 
-def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float) -> _Records:
+def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float, channel=None) -> _Records:
     """Step the started ``sim`` (sim.sumo.SumoSimulation) until ``end_time`` [s] or no vehicle is
     left; every ``period_steps`` steps read the world, let ``scheduler`` (sim.scheduler.StepScheduler)
-    decide, command, show the step to ``observers`` and record it. Returns the recorded rows."""
+    decide, command, show the step to ``observers`` and record it. Returns the recorded rows.
+
+    With a ``channel`` (v2x.Channel) the vehicles send their states when it says so, the
+    controller decides on the World the channel shows it, and its decisions reach SUMO when the
+    channel delivers them (checked every step); the records keep SUMO's state."""
     records = _Records([], [], [], {})
     sim.advance()  # time 0: insert the vehicles that depart at once
     k = 0
     while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
-        if k % period_steps == 0:
+        control = k % period_steps == 0
+        sends = channel is not None and channel.sends_at(sim.time)
+        if control or sends:
             world = sim.world()  # read
-            decisions, record = scheduler.step(world)  # decide
-            sim.command(decisions)
+        if sends:
+            channel.uplink(world)
+        if control:
+            seen = world if channel is None else channel.observe(world)
+            decisions, record = scheduler.step(seen)  # decide
+            if channel is None:
+                sim.command(decisions)
+            else:
+                channel.send(decisions, sim.time)
             for observe in observers:
                 observe(world, decisions)
             _record_step(records, world, decisions, record)
+        if channel is not None and (arrived := channel.deliver(sim.time)) is not None:
+            sim.command(arrived)
         sim.write()  # write
         scheduler.pace(sim.time)
         sim.advance()  # step

@@ -34,6 +34,7 @@ import pandas as pd
 
 from intersection_cosim.control import registry
 from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.axes import parse_axes
 from intersection_cosim.experiments.executors import (OVERRIDE_TABLES, Job, execute_job, open_executor, stop_children,
                                                       write_failure)
 from intersection_cosim.results.layout import FAILED_DIR, RUNS_DIR, SPEC_FILE, TABLE_FILE, failure_file, run_folder
@@ -147,11 +148,13 @@ def parse_controllers(text: str) -> tuple[str, ...]:
 # --- the sweep's spec and its jobs -------------------------------------------------------------
 
 def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers: str | None = None,
-              seeds: str | None = None, overrides: dict[str, float] | None = None) -> SweepSpec:
+              seeds: str | None = None, overrides: dict[str, float] | None = None,
+              axes: dict[str, str | None] | None = None) -> SweepSpec:
     """Validate the command line's sweep spec against the scenario; raise InputError before any run.
 
     ``overrides``: [scenario] / [controller] fields set for every run (``executors.OVERRIDE_TABLES``), e.g.
-    ``{"duration": 60.0, "budget_ms": 20.0}``; part of the sweep's identity.
+    ``{"duration": 60.0, "budget_ms": 20.0}``; part of the sweep's identity. ``axes``: the scenario
+    axes of the command line (experiments/axes.py), name -> value list text, e.g. ``{"latency": "0,0.1"}``.
     """
     path = Path(scenario)
     scn = load_scenario(path)
@@ -161,6 +164,7 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
     safe = [safe_name(v) for v in grid]
     if len(set(safe)) != len(safe):
         raise InputError("--kappa", "kappa", ", ".join(grid), "vehicle ids collide in run folder names")
+    scenario_axes = parse_axes(axes)
     kinds = parse_controllers(controllers) if controllers else (scn.controller.kind,)
     seed_list = parse_seeds(seeds) if seeds else (scn.scenario.seed,)
     fixed = []
@@ -172,17 +176,18 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
         fixed.append((name, float(value)))
     return SweepSpec(scenario=str(path.resolve()), scenario_sha256=hashlib.sha256(text.encode()).hexdigest(),
                      scenario_name=scn.scenario.name, vehicles=tuple(vids), kappa=tuple(grid.items()),
-                     controllers=kinds, seeds=seed_list, scenario_text=text, overrides=tuple(fixed))
+                     controllers=kinds, seeds=seed_list, scenario_text=text, overrides=tuple(fixed),
+                     scenario_axes=scenario_axes)
 
 
 def sweep_jobs(spec: SweepSpec, out: str | Path, scenario_text: str = "") -> list[Job]:
     """The runs of ``spec`` in the sweep folder ``out``, in grid order; ``scenario_text`` is the
     scenario file's text they run."""
     out = Path(out).resolve()
-    return [Job(run_id=(rid := spec.run_id(c, s, k)), scenario=spec.scenario, scenario_text=scenario_text,
+    return [Job(run_id=(rid := spec.run_id(c, s, k, a)), scenario=spec.scenario, scenario_text=scenario_text,
                 controller=c, seed=s, kappa=k, run_dir=str(run_folder(out, rid)),
-                failed_file=str(failure_file(out, rid)), overrides=spec.overrides)
-            for c, s, k in spec.grid()]
+                failed_file=str(failure_file(out, rid)), overrides=spec.overrides, axes=a)
+            for c, s, k, a in spec.grid()]
 
 
 def kappa_warning(spec: SweepSpec) -> str | None:
@@ -207,7 +212,8 @@ def check_out(spec: SweepSpec, out: Path) -> None:
             raise InputError("--out", "out", str(out), f"has an unreadable {SPEC_FILE} ({exc})") from None
         if old.identity() != spec.identity():
             what = [name for name, a, b in zip(("scenario file content", "vehicles", "kappa grid", "controllers",
-                                                "seeds", "overrides"), old.identity(), spec.identity(), strict=True) if a != b]
+                                                "seeds", "overrides", "scenario axes"), old.identity(), spec.identity(),
+                                               strict=True) if a != b]
             raise InputError("--out", "out", str(out), f"holds another sweep (its {', '.join(what)} differ); "
                              "rerun the same command to continue it, or use another --out")
     elif out.is_dir() and any(p.name != LOCK_FILE for p in out.iterdir()):

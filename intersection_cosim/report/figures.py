@@ -632,3 +632,36 @@ def metric_vs_demand(table: pd.DataFrame, metric: str, label: str, out_png: Path
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return _save(fig, out_png)
+
+
+def metric_vs_axis(table: pd.DataFrame, metric: str, label: str, axis: str, axis_label: str, out_png: Path,
+                   others: tuple[str, ...] = ()) -> Path:
+    """A comparison metric against the scenario axis ``axis`` (``compare --latency`` / ``--loss``).
+
+    ``table``: comparison.csv's rows (columns scenario, controller, ``axis``, the ``others`` axes
+    and ``metric``). One line per scenario, controller and value of the other axes (each mean over
+    the seeds); the legend names them.
+    """
+    keys = ["scenario", "controller", *others]
+    groups = list(table.groupby(keys, sort=False))
+    scenarios = table["scenario"].nunique()
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    cmap = plt.get_cmap("tab10")
+    for i, (key, rows) in enumerate(groups):
+        key = dict(zip(keys, key if isinstance(key, tuple) else (key,)))
+        name = ", ".join([key["controller"]] + ([key["scenario"]] if scenarios > 1 else [])
+                         + [f"{o} {key[o]:g}" for o in others])
+        rows = rows.sort_values(axis)
+        ax.plot(rows[axis], rows[metric].astype(float), marker=TRAJECTORY_MARKERS[i % len(TRAJECTORY_MARKERS)],
+                color=cmap(i % cmap.N), linestyle=LINE_STYLES[(i // cmap.N) % len(LINE_STYLES)], label=name)
+    ax.set_xlabel(axis_label)
+    ax.set_ylabel(label)
+    if metric in ("collisions", "ssm_share_under_thresholds"):
+        ax.set_ylim(bottom=0)
+    if metric == "collisions":
+        ax.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    ax.set_title(f"{label} against {axis}", fontsize=10)
+    ax.legend(fontsize=8, ncol=2 if len(groups) > 6 else 1)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, out_png)

@@ -50,38 +50,48 @@ class SweepSpec:
     seeds: tuple[int, ...]
     scenario_text: str = dataclasses.field(default="", compare=False, repr=False)  # what the runs run
     overrides: tuple[tuple[str, float], ...] = ()  # [scenario] / [controller] field overrides of every run (experiments/executors.py)
+    # scenario axes (experiments/axes.py) and their values, e.g. (("latency", (0.0, 0.1)),), in axis order
+    scenario_axes: tuple[tuple[str, tuple[float, ...]], ...] = ()
 
     @property
     def axes(self) -> list[str]:
-        """The kappa columns of sweep.csv, one per swept vehicle."""
-        return [f"kappa_{vid}" for vid, _ in self.kappa]
+        """The axis columns of sweep.csv: one kappa column per swept vehicle, then the scenario axes."""
+        return [f"kappa_{vid}" for vid, _ in self.kappa] + [name for name, _ in self.scenario_axes]
 
     @property
     def total(self) -> int:
-        return len(self.controllers) * len(self.seeds) * math.prod(len(v) for _, v in self.kappa)
+        return (len(self.controllers) * len(self.seeds) * math.prod(len(v) for _, v in self.kappa)
+                * math.prod(len(v) for _, v in self.scenario_axes))
 
     def grid(self):
-        """(controller, seed, ((vehicle, kappa), ...)) for every run, in the order of sweep.csv."""
+        """(controller, seed, ((vehicle, kappa), ...), ((axis, value), ...)) for every run, in the
+        order of sweep.csv."""
         vids = [vid for vid, _ in self.kappa]
+        names = [name for name, _ in self.scenario_axes]
         for controller in self.controllers:
             for seed in self.seeds:
-                for combo in itertools.product(*(values for _, values in self.kappa)):
-                    yield controller, seed, tuple(zip(vids, combo, strict=True))
+                for point in itertools.product(*(values for _, values in self.scenario_axes)):
+                    for combo in itertools.product(*(values for _, values in self.kappa)):
+                        yield controller, seed, tuple(zip(vids, combo, strict=True)), tuple(zip(names, point))
 
     @staticmethod
-    def run_id(controller: str, seed: int, kappa: tuple[tuple[str, float], ...]) -> str:
-        return f"{controller}-seed{seed}" + "".join(f"-{safe_name(v)}_{format_kappa(k)}" for v, k in kappa)
+    def run_id(controller: str, seed: int, kappa: tuple[tuple[str, float], ...],
+               axes: tuple[tuple[str, float], ...] = ()) -> str:
+        return (f"{controller}-seed{seed}" + "".join(f"-{safe_name(v)}_{format_kappa(k)}" for v, k in kappa)
+                + "".join(f"-{name}_{format_kappa(x)}" for name, x in axes))
 
     def identity(self) -> tuple:
         """What must match for a rerun to continue a sweep (the file may have moved)."""
-        return (self.scenario_sha256, self.vehicles, self.kappa, self.controllers, self.seeds, self.overrides)
+        return (self.scenario_sha256, self.vehicles, self.kappa, self.controllers, self.seeds, self.overrides,
+                self.scenario_axes)
 
     def to_dict(self) -> dict:
         return {"scenario": self.scenario, "scenario_sha256": self.scenario_sha256,
                 "scenario_name": self.scenario_name, "vehicles": list(self.vehicles),
                 "kappa": {vid: list(values) for vid, values in self.kappa},
                 "controllers": list(self.controllers), "seeds": list(self.seeds), "runs": self.total,
-                **({"overrides": dict(self.overrides)} if self.overrides else {})}
+                **({"overrides": dict(self.overrides)} if self.overrides else {}),
+                **({"axes": {name: list(values) for name, values in self.scenario_axes}} if self.scenario_axes else {})}
 
     @classmethod
     def from_dict(cls, d: dict) -> "SweepSpec":
@@ -89,7 +99,8 @@ class SweepSpec:
                    vehicles=tuple(d["vehicles"]),
                    kappa=tuple((vid, tuple(float(x) for x in vals)) for vid, vals in d["kappa"].items()),
                    controllers=tuple(d["controllers"]), seeds=tuple(int(s) for s in d["seeds"]),
-                   overrides=tuple((str(f), float(x)) for f, x in d.get("overrides", {}).items()))
+                   overrides=tuple((str(f), float(x)) for f, x in d.get("overrides", {}).items()),
+                   scenario_axes=tuple((str(n), tuple(float(x) for x in vals)) for n, vals in d.get("axes", {}).items()))
 
 
 def load_spec(out: str | Path) -> SweepSpec:
@@ -140,6 +151,8 @@ def run_metrics(run_dir: Path, vehicles: tuple[str, ...] | None = None) -> dict:
     for key, value in sorted(metrics.items()):  # metrics added to summary.json later get columns too
         if isinstance(value, (int, float)) or value is None:
             m[key] = value
+    for key, value in summary.get("v2x", {}).items():  # a run with a [v2x] link: its message counts
+        m[f"v2x_{key}"] = value
     return {k: (np.nan if v is None else v) for k, v in m.items()}
 
 
@@ -148,10 +161,11 @@ def sweep_table(out: str | Path, spec: SweepSpec | None = None) -> pd.DataFrame:
     out = Path(out)
     spec = spec or load_spec(out)
     rows = []
-    for controller, seed, kappa in spec.grid():
-        run_id = spec.run_id(controller, seed, kappa)
+    for controller, seed, kappa, axes in spec.grid():
+        run_id = spec.run_id(controller, seed, kappa, axes)
         row = {"run_id": run_id, "controller": controller, "seed": seed}
         row.update({f"kappa_{vid}": k for vid, k in kappa})
+        row.update(dict(axes))
         failed = failure_file(out, run_id)
         if is_finished_run(run_folder(out, run_id)):
             row.update(run_metrics(run_folder(out, run_id), spec.vehicles))

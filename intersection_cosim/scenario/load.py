@@ -33,8 +33,9 @@ from intersection_cosim.scenario.model import (
 )
 from intersection_cosim.scenario.network import net_of, network_settings, route_file_ids
 from intersection_cosim.settings import from_table
+from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
-TOP_LEVEL = ("scenario", "controller", "model", "network", "vehicle", "flow")
+TOP_LEVEL = ("scenario", "controller", "model", "network", "vehicle", "flow", "v2x")
 CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed")
@@ -316,8 +317,40 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path
     model = from_table(ModelSettings, data.get("model"), src, "model")
     network = network_settings(src, data.get("network"), Path(src).parent if base is None else Path(base))
     vehicles, flows = _demand(src, data, scen, model, network)
+    v2x = _v2x(src, data.get("v2x"), vehicles, flows, network)
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
-                    controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network)
+                    controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network,
+                    v2x=v2x)
+
+
+def _v2x(src: str, table: Any, vehicles: list[VehicleSpec], flows: list[FlowSpec],
+         network: NetworkSettings) -> V2XSettings:
+    """The ``[v2x]`` table and its ``[[v2x.attack]]`` entries; an attacked vehicle must be one of
+    the scenario's: a [[vehicle]], a flow's ``<flow id>.<k>`` or a vehicle of its route file."""
+    if table is None:
+        return V2XSettings()
+    if not isinstance(table, dict):
+        raise InputError(src, "v2x", table, "must be a table")
+    table = dict(table)
+    raw = table.pop("attack", [])
+    if not isinstance(raw, list):
+        raise InputError(src, "v2x.attack", raw, "must be an array of tables ([[v2x.attack]])")
+    attacks = []
+    for i, entry in enumerate(raw):
+        if not isinstance(entry, dict):
+            raise InputError(src, f"v2x.attack[{i}]", entry, "must be a table ([[v2x.attack]])")
+        attacks.append(from_table(AttackSettings, entry, src, f"v2x.attack[{i}]"))
+    settings = from_table(V2XSettings, table, src, "v2x")
+    ids = {v.id for v in vehicles}
+    if network.routes is not None:
+        ids |= route_file_ids(network.routes)[1]
+    flow_ids = {f.id for f in flows}
+    for i, attack in enumerate(attacks):
+        head, _, k = attack.vehicle.rpartition(".")
+        if attack.vehicle not in ids and not (head in flow_ids and k.isdigit()):
+            raise InputError(src, f"v2x.attack[{i}].vehicle", attack.vehicle,
+                             "is not a vehicle of the scenario (a [[vehicle]] id or <flow id>.<k>)")
+    return dataclasses.replace(settings, attack=tuple(attacks))
 
 
 def _demand(src: str, data: dict[str, Any], scen: ScenarioSettings, model: ModelSettings,

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.spec import JUNCTION_TYPES
 from intersection_cosim.settings import non_negative, positive
+from intersection_cosim.v2x.settings import V2XSettings
 
 
 @dataclass(frozen=True)
@@ -146,3 +147,4 @@ class Scenario:
     vehicles: tuple[VehicleSpec, ...] = ()
     flows: tuple[FlowSpec, ...] = ()
     network: NetworkSettings = NetworkSettings()  # the [network] table (default: the generated paper net)
+    v2x: V2XSettings = V2XSettings()  # the [v2x] table (default: perfect information, no channel)
