@@ -29,6 +29,7 @@ class StepRecord:
     fallback: bool  # the applied decisions are the fallback
     deferred: int = 0  # games / solo solves the controller left out to meet the budget
     qp_solves: int = 0  # QPs decide solved (its work; kept when the fallback replaces its decisions)
+    junction: str = ""  # the managed junction whose controller this is (sim.network_scheduler)
 
 
 class StepScheduler:
