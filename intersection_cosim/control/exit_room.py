@@ -4,7 +4,8 @@ Across a network a queue spills back from one junction onto the exit lanes of th
 a vehicle that entered a junction towards a full exit lane stops inside it and blocks the
 crossings of others, whose queues may in turn block the junction it waits for (gridlock).
 :func:`exit_room_caps` holds a READY vehicle at its stop line while its exit lane has less than
-its length plus ``min_gap`` free, counting the vehicles already inside the junction towards the
+its length plus ``min_gap`` free by the time it reaches its stop line (the lane's last vehicle
+driving on at its speed), counting the vehicles standing inside the junction towards the
 same lane and those ahead of it that were let go this step (nearest to its stop line first).
 Pure: the free length of each exit lane comes in the World (``World.exit_free``, read by the
 simulator adapter).
@@ -25,7 +26,8 @@ def exit_lane_id(movements: Movements, path_id: str, option: str) -> str:
 
 
 def exit_room_caps(world: World, movements: Movements, options: Mapping[str, str], length: float,
-                   min_gap: float, margin: float, comfort: float, a_min: float, period: float) -> dict[str, float]:
+                   min_gap: float, margin: float, comfort: float, a_min: float, period: float,
+                   standing: float) -> dict[str, float]:
     """[m/s^2] per READY vehicle whose exit lane lacks room: the acceleration that stops it
     ``margin`` [m] before its stop line (see :func:`_hold`: from the last moment braking at
     ``comfort`` [m/s^2] does it; none if it cannot stop there any more braking at ``a_min``
@@ -33,7 +35,9 @@ def exit_room_caps(world: World, movements: Movements, options: Mapping[str, str
 
     ``options``: the exit lane each vehicle takes (its path's own if absent); ``length`` [m] the
     vehicle length, ``min_gap`` [m] the standstill gap it needs behind the last vehicle,
-    ``period`` [s] the control period.
+    ``period`` [s] the control period. A vehicle inside the junction claims room on its exit lane
+    only while it is slower than ``standing`` [m/s] (one that drives on will be on the lane, and
+    in ``World.exit_free``, before the held one could enter).
     """
     if not world.exit_free:
         return {}
@@ -43,13 +47,16 @@ def exit_room_caps(world: World, movements: Movements, options: Mapping[str, str
     for k, pid in enumerate(world.path_ids):
         path = movements.paths[pid]
         lane = exit_lane_id(movements, pid, options.get(world.ids[k], path.exit_lane))
-        if world.role[k] == "passing":
+        if world.role[k] == "passing" and float(world.v[k]) < standing:
             taken[lane] = taken.get(lane, 0.0) + need
         elif world.role[k] == "ready" and lane in world.exit_free:
             ready.append((path.s_stop - float(world.s[k]), world.ids[k], k, lane, path.s_stop))
     caps = {}
     for to_stop, vid, k, lane, s_stop in sorted(ready):
-        if world.exit_free[lane] - taken.get(lane, 0.0) >= need:
+        free, v_last = world.exit_free[lane]  # [m], [m/s]
+        # the room there will be when it reaches its stop line, the last vehicle driving on as now
+        room = free + min(v_last, 1e6) * to_stop / max(float(world.v[k]), 0.5)
+        if room - taken.get(lane, 0.0) >= need:
             taken[lane] = taken.get(lane, 0.0) + need
             continue
         cap = _hold(float(world.s[k]), float(world.v[k]), s_stop, margin, comfort, a_min, period)

@@ -246,7 +246,7 @@ class GameController:
             return {}
         return exit_room_caps(world, self.ctx.movements, self.memory.options, self.model.vehicle_length,
                               st.exit_min_gap, st.safety_margin, self.settings.game.comfort_brake,
-                              self.settings.game.a_min, self.ctx.control_period)
+                              self.settings.game.a_min, self.ctx.control_period, st.clear_speed)
 
     def fallback(self, world: World) -> Decisions:
         """The last applied plan shifted by one period (comfortable braking where there is none),

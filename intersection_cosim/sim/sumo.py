@@ -324,16 +324,18 @@ class SumoSimulation:
                      lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"],
                      exit_free=self._exit_free(exit_choices, roles, ids))
 
-    def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict[str, float]:
-        """[m] per exit lane (SUMO lane id) a READY vehicle may take: from the lane's start to the rear of the
-        last vehicle on it (SUMO's, whoever drives it), the lane's length if it is empty."""
+    def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
+        """Per exit lane (SUMO lane id) a READY vehicle may take: ([m] from the lane's start to the
+        rear of the last vehicle on it, SUMO's whoever drives it, [m/s] that vehicle's speed); the
+        lane's length and inf if it is empty."""
         lanes = {self.paths[self.movements.siblings.get((self.current_path[vid], option), self.current_path[vid])].lanes[-1]
                  for vid, role in zip(ids, roles) if role == READY for option in exit_choices[vid]}
         free = {}
+        veh = self.api.vehicle
         for lane in sorted(lanes):
-            rears = [self.api.vehicle.getLanePosition(v) - self.api.vehicle.getLength(v)
+            rears = [(veh.getLanePosition(v) - veh.getLength(v), veh.getSpeed(v))
                      for v in self.api.lane.getLastStepVehicleIDs(lane)]
-            free[lane] = max(0.0, min(rears)) if rears else self.api.lane.getLength(lane)
+            free[lane] = (max(0.0, min(rears)[0]), min(rears)[1]) if rears else (self.api.lane.getLength(lane), math.inf)
         return free
 
     # --- write -----------------------------------------------------------------------------
