@@ -245,3 +245,20 @@ def test_sumo_home_is_the_package_home_unless_the_variable_names_a_sumo_installa
     monkeypatch.setenv("SUMO_HOME", str(tmp_path / "sumo_data"))
     assert sumo_home() == str(sumo.SUMO_HOME)
     assert os.path.isfile(os.path.join(str(sumo.SUMO_HOME), "bin", "sumo"))
+
+
+def test_junctions_all_is_every_manageable_junction_and_a_wrong_word_is_an_error(tmp_path):
+    from intersection_cosim.errors import InputError
+    from intersection_cosim.network.junction_net import junction_table
+
+    scn = load_scenario(Path(__file__).resolve().parents[2] / "scenarios" / "grid_low.toml")
+    listed = junction_table(scn.network.file)
+    assert scn.network.junctions == tuple(listed.loc[listed["manageable"], "id"])
+    assert scn.network.junctions == ("A0", "A1", "A2", "B0", "B1", "B2", "C0", "C1", "C2")
+    bad = tmp_path / "bad.toml"
+    bad.write_text((Path(__file__).resolve().parents[2] / "scenarios" / "grid_low.toml").read_text()
+                   .replace('junctions = "all"', 'junctions = "every"')
+                   .replace("../sumo_networks", str(Path(__file__).resolve().parents[2] / "sumo_networks")))
+    with pytest.raises(InputError) as err:
+        load_scenario(bad)
+    assert "network.junctions" in str(err.value) and "every" in str(err.value)
