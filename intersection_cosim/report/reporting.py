@@ -173,8 +173,8 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
     for _, row in ok.iterrows():
         steps = run_folder(folder, row["run_id"]) / STEPS_FILE
         if steps.is_file():
-            samples.setdefault(row["controller"], []).append(pd.read_csv(steps, usecols=["compute_ms"])["compute_ms"]
-                                                             .to_numpy(float))
+            per_step = pd.read_csv(steps).groupby("time", sort=False)["compute_ms"].sum()  # [ms] over the junctions
+            samples.setdefault(row["controller"], []).append(per_step.to_numpy(float))
     png = figs / "compute_time_hist.png"
     fig.compute_time_histogram({c: np.concatenate(v) for c, v in samples.items()}, png,
                                title="Controller compute time per step (all finished runs)",
