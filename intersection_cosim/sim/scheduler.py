@@ -59,6 +59,9 @@ class StepScheduler:
             decisions = self.controller.fallback(world)
             decisions.fallback = True
             if played is not None:
+                # decide has already forgotten the vehicles it released: hand them back to SUMO
+                # all the same, or they would keep their last command with SUMO's checks off
+                decisions.release = sorted(set(decisions.release) | set(played.release))
                 decisions.games, decisions.iterations = played.games, played.iterations
                 decisions.deferred = played.deferred
                 decisions.qp_solves += played.qp_solves

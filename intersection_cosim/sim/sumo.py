@@ -347,7 +347,9 @@ class SumoSimulation:
         for vid, lane in decisions.exit_lane.items():
             if vid in self.vehicles:
                 self.vehicles[vid].exit_lane = lane
-        for vid in decisions.release:
+        # a commanded vehicle on no managed path is in no controller's World: SUMO's again
+        lost = [vid for vid in self.commands if vid not in self.current_path]
+        for vid in [*decisions.release, *lost]:
             if self.commands.pop(vid, None) is not None and vid in self.states:
                 self.api.vehicle.setSpeed(vid, -1)  # SUMO's own driver model takes over again
                 self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
