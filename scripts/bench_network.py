@@ -115,7 +115,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--bin", type=int, default=20, help="[vehicles] width of the vehicle-count bins")
     args = ap.parse_args(argv)
     if args.runs:
-        runs = {p.name: p for p in args.runs}
+        runs = {"/".join(p.parts[-3:]): p for p in args.runs}  # scenario/runs/run id of a sweep folder
     else:
         out = Path(tempfile.mkdtemp(prefix="bench_network-"))
         runs = {lv: _run(lv, args.controller, args.duration, out) for lv in LEVELS}
@@ -146,9 +146,9 @@ def main(argv: list[str] | None = None) -> dict:
         lv["speedup_two_processes"] = lv["summed_ms_median"] / par if par > 0 else None
     result = {"benchmark": "bench_network", "controller": args.controller, "ipc_roundtrip_ms": ipc,
               "levels": levels, "bins": bins}
-    print(f"{'run':>8} {'veh':>5} {'sum ms':>8} {'p95 ms':>8} {'2-proc ms':>9} {'speedup':>7}", file=sys.stderr)
+    print(f"{'run':>36} {'veh':>5} {'sum ms':>8} {'p95 ms':>8} {'2-proc ms':>9} {'speedup':>7}", file=sys.stderr)
     for name, lv in levels.items():
-        print(f"{name:>8} {lv['vehicles_median']:5.0f} {lv['summed_ms_median']:8.2f} {lv['summed_ms_p95']:8.2f} "
+        print(f"{name:>36} {lv['vehicles_median']:5.0f} {lv['summed_ms_median']:8.2f} {lv['summed_ms_p95']:8.2f} "
               f"{lv['two_process_with_ipc_ms_median']:9.2f} {lv['speedup_two_processes']:7.2f}", file=sys.stderr)
     print(json.dumps(result))
     return result
