@@ -35,6 +35,9 @@ class World:
     lanes: list[str] = field(default_factory=list)  # SUMO lane id of each vehicle
     exit_choices: dict[str, tuple[str, ...]] = field(default_factory=dict)  # vehicle -> exit lanes it may still take
     desired_speed: np.ndarray | None = None  # [m/s] per vehicle (J_e, Eq. 24); NaN / None: ModelSettings.v_max
+    exit_free: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # per exit lane (SUMO id) a
+    #   READY vehicle may take: ([m] free length from the lane's start to the rear of its last
+    #   vehicle, [m/s] that vehicle's speed); (lane length, inf) if empty; a lane not in it is free
 
     def __len__(self) -> int:
         return len(self.ids)

@@ -40,6 +40,7 @@ from typing import NamedTuple
 
 from intersection_cosim.control.anytime import AnytimeSchedule, step_cutoff
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
+from intersection_cosim.control.exit_room import exit_room_caps
 from intersection_cosim.control.lane_options import LaneChangeCosts, lane_options
 from intersection_cosim.control.pair_games import GameSolver, PairGame, pair_games, play, urgency
 from intersection_cosim.control.plan_memory import PlanMemory
@@ -234,8 +235,18 @@ class GameController:
 
     def _filter(self, world: World, relations: Relations, decisions: Decisions) -> None:
         if self.settings.safety.safety_filter:
-            held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions)
+            held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
+                                     self._exit_holds(world))
             self._held = self._held | held
+
+    def _exit_holds(self, world: World) -> dict[str, float]:
+        """[m/s^2] caps that keep vehicles whose exit lane is full at their stop lines."""
+        st = self.settings.safety
+        if not st.exit_room:
+            return {}
+        return exit_room_caps(world, self.ctx.movements, self.memory.options, self.model.vehicle_length,
+                              st.exit_min_gap, st.safety_margin, self.settings.game.comfort_brake,
+                              self.settings.game.a_min, self.ctx.control_period, st.clear_speed)
 
     def fallback(self, world: World) -> Decisions:
         """The last applied plan shifted by one period (comfortable braking where there is none),

@@ -18,6 +18,7 @@ from intersection_cosim.control.base import Controller
 from intersection_cosim.control.fcfs import FcfsController
 from intersection_cosim.control.reservations import FcfsSettings
 from intersection_cosim.control.game import GameController
+from intersection_cosim.control.per_junction import PerJunction
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.control.sumo_baseline import SumoController
 from intersection_cosim.errors import InputError
@@ -83,6 +84,11 @@ def create(kind: str, settings: Any, junction_type: str) -> Controller:
     """A new controller ``kind`` with its validated settings; ``junction_type`` is the
     scenario's SUMO node type of the centre (used by the ``sumo`` controller)."""
     return get(kind).factory(settings, junction_type)
+
+
+def create_per_junction(kind: str, settings: Any, junction_type: str) -> PerJunction:
+    """Controllers ``kind``, one per managed junction (made at setup, see control.per_junction)."""
+    return PerJunction(lambda: create(kind, settings, junction_type))
 
 
 def _register_builtin() -> None:

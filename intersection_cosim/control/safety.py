@@ -152,10 +152,12 @@ class SafetyFilter:
         self.entered.pop(vehicle, None)
 
     def apply(self, world: World, relations: Relations, plans: Mapping[str, Plan], options: Mapping[str, str],
-              decisions: Decisions) -> frozenset[str]:
+              decisions: Decisions, holds: Mapping[str, float] | None = None) -> frozenset[str]:
         """Lower (or, by the box rule, raise) ``decisions.accel`` where this step's ``plans``
-        would collide; ``options``: the exit lane each vehicle takes. Returns the vehicles held
-        back at a crossing (not only behind a leader).
+        would collide; ``options``: the exit lane each vehicle takes; ``holds`` [m/s^2]: caps
+        of other rules (e.g. control/exit_room.py's), enforced and seen by the crossings like
+        the filter's own. Returns the vehicles held back at a crossing or by ``holds`` (not only
+        behind a leader).
 
         Two passes: a vehicle braked in the first pass is checked again in the second with its
         braking plan (constant capped deceleration to a stop), so a vehicle made to stop is seen
@@ -166,6 +168,9 @@ class SafetyFilter:
                        for r in range(len(rows)))
         cap = self._leader_caps(world, relations, chosen, decisions)
         leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
+        for vid, limit in (holds or {}).items():
+            if vid in decisions.accel:
+                cap[vid] = min(cap.get(vid, math.inf), limit)
         plans = dict(plans)
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
         pairs, on = relations.pairs, np.array(chosen, bool)

@@ -15,8 +15,10 @@ the demand window (``[scenario] duration``, summed over the seeds); SSM min TTC 
 encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``);
 collisions summed; ``late_or_stuck``: departed vehicles that never arrived (a deadlock) or lost
 more than 60 s against free flow (tripinfo's timeLoss: a queue that does not drain), whatever the
-length of their routes, so the same bound holds on a small junction and on a long OSM approach; compute time per control step median and 95th percentile over all steps, and
-the share of steps that missed their deadline.
+length of their routes, so the same bound holds on a small junction and on a long OSM approach; compute time per control step (summed over the
+junctions' controllers of a net with several) median and 95th percentile over all steps, and
+the share of junction steps (one junction's controller in one control step, each with its own
+budget) that missed their deadline.
 """
 
 from __future__ import annotations
@@ -51,7 +53,8 @@ LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against fre
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
-           "late_or_stuck", "compute_ms_median", "compute_ms_p95", "control_steps", "deadline_misses", "deadline_miss_share",
+           "late_or_stuck", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps", "deadline_misses",
+           "deadline_miss_share",
            "deferred_step_share"]
 # Metrics that get a figure against demand, with axis labels.
 FIGURE_METRICS = {
@@ -153,18 +156,19 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             va = pd.read_csv(run / VEHICLES_FILE, dtype={"vehicle": str})
             late += int((va["depart"].notna() & ~(va["arrival"].notna() & (va["time_loss"] <= LATE_AFTER))).sum())
             veh.append(va)
-            steps.append(pd.read_csv(run / STEPS_FILE))
+            steps.append(_step_sums(pd.read_csv(run / STEPS_FILE)))
             ssm.append(read_ssm(run / SSM_FILE))
         v = pd.concat(veh) if veh else pd.DataFrame(columns=["arrival", "travel_time", "time_loss"])
         v = v[v["arrival"].notna()] if len(v) else v
-        st = pd.concat(steps) if steps else pd.DataFrame(columns=["compute_ms", "deadline_missed"])
+        st = pd.concat(steps) if steps else pd.DataFrame(columns=["compute_ms", "deadline_missed", "junctions"])
         ss = pd.concat(ssm) if ssm else pd.DataFrame(columns=["min_ttc", "pet"])
         tt = v["travel_time"].to_numpy(float)
         ttc = ss["min_ttc"].to_numpy(float)
         pet = ss["pet"].to_numpy(float)
         under = (np.nan_to_num(ttc, nan=np.inf) < ttc_thr) | (np.nan_to_num(pet, nan=np.inf) < pet_thr)
         cms = st["compute_ms"].to_numpy(float)
-        misses = int(st["deadline_missed"].astype(bool).sum()) if len(st) else 0
+        misses = int(st["deadline_missed"].sum()) if len(st) else 0
+        junction_steps = int(st["junctions"].sum()) if len(st) else 0
         rows.append({
             "scenario": spec.scenario_name, "demand_veh_h": demand, "controller": controller, **dict(point),
             "seeds": len(spec.seeds), "runs_ok": len(mine), "vehicles": vehicles, "arrived": arrived,
@@ -176,13 +180,22 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "collisions": collisions if mine else math.nan,
             "late_or_stuck": late if mine else math.nan,
             "compute_ms_median": _quantile(cms, 0.5), "compute_ms_p95": _quantile(cms, 0.95),
-            "control_steps": len(st), "deadline_misses": misses,
-            "deadline_miss_share": misses / len(st) if len(st) else math.nan,
+            "control_steps": len(st), "junction_steps": junction_steps, "deadline_misses": misses,
+            "deadline_miss_share": misses / junction_steps if junction_steps else math.nan,
             # steps in which the game controllers' anytime step left games / solo solves out
             "deferred_step_share": (float(st["deferred"].gt(0).mean())
                                     if len(st) and "deferred" in st else math.nan),
         })
     return rows
+
+
+def _step_sums(steps: pd.DataFrame) -> pd.DataFrame:
+    """One row per control step of a run's steps.csv (which has one per junction and step):
+    compute_ms [ms] summed over the junctions, deadline_missed the junctions that missed,
+    deferred the work left out, junctions how many there were."""
+    steps = steps.assign(deadline_missed=steps["deadline_missed"].astype(bool).astype(int), junctions=1)
+    cols = {c: "sum" for c in ("compute_ms", "deadline_missed", "deferred", "junctions") if c in steps}
+    return steps.groupby("time", sort=False).agg(cols).reset_index()
 
 
 def markdown_table(table: pd.DataFrame, columns: list[str] | None = None) -> str:

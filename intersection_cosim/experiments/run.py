@@ -24,7 +24,7 @@ import pandas as pd
 
 from intersection_cosim import __version__
 from intersection_cosim.control import registry
-from intersection_cosim.control.base import ControlContext, Controller, Decisions, Diagnostics, World
+from intersection_cosim.control.base import ControlContext, Controller, Diagnostics, World
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_output_options, write_routes,
                                                   write_sumocfg)
@@ -196,7 +196,7 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
 def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     """Create the run's controller and write its SUMO inputs (net, routes, config) into ``folder``."""
     s = scn.scenario
-    controller = registry.create(scn.controller.kind, scn.controller_settings, s.junction_type)
+    controller = registry.create_per_junction(scn.controller.kind, scn.controller_settings, s.junction_type)
     net, movements = _movements(scn, controller)
     shutil.copyfile(net, folder / NET_FILE)
     rng = np.random.default_rng(s.seed)
@@ -274,7 +274,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     # The simulator layer (libsumo) is loaded only by the process that runs a simulation, not by
     # a sweep's supervising process, which imports this module through experiments.executors.
     from intersection_cosim.sim.gui import GuiView
-    from intersection_cosim.sim.scheduler import StepScheduler
+    from intersection_cosim.sim.network_scheduler import NetworkScheduler
     from intersection_cosim.sim.sumo import LANE_CHANGE_MODE_STRATEGIC, LIBSUMO, SumoSimulation, VehicleInfo
 
     s, controller = scn.scenario, inputs.controller
@@ -284,7 +284,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
                                     etm=scn.controller.etm))
-    scheduler = StepScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
+    scheduler = NetworkScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     if gui is not None and not scn.network.generated:  # look at the managed junction, not the origin
         gui = dataclasses.replace(gui, centre=junction_centre(inputs.net, scn.network.junctions[0]))
     view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
@@ -324,8 +324,9 @@ def _signals_off(scn: Scenario, controller: Controller) -> bool:
 
 def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float, channel=None) -> _Records:
     """Step the started ``sim`` (sim.sumo.SumoSimulation) until ``end_time`` [s] or no vehicle is
-    left; every ``period_steps`` steps read the world, let ``scheduler`` (sim.scheduler.StepScheduler)
-    decide, command, show the step to ``observers`` and record it. Returns the recorded rows.
+    left; every ``period_steps`` steps read the world, let ``scheduler`` (sim.network_scheduler's,
+    one controller per junction) decide, command, show the step to ``observers`` and record it.
+    Returns the recorded rows.
 
     With a ``channel`` (v2x.Channel) the vehicles send their states when it says so, the
     controller decides on the World the channel shows it, and its decisions reach SUMO when the
@@ -342,14 +343,14 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
             channel.uplink(world)
         if control:
             seen = world if channel is None else channel.observe(world)
-            decisions, record = scheduler.step(seen)  # decide
+            step = scheduler.step(seen)  # decide
             if channel is None:
-                sim.command(decisions)
+                sim.command(step.decisions)
             else:
-                channel.send(decisions, sim.time)
+                channel.send(step.decisions, sim.time)
             for observe in observers:
-                observe(world, decisions)
-            _record_step(records, world, decisions, record)
+                observe(world, step.decisions)
+            _record_step(records, world, step)
         if channel is not None and (arrived := channel.deliver(sim.time)) is not None:
             sim.command(arrived)
         sim.write()  # write
@@ -359,16 +360,18 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
     return records
 
 
-def _record_step(records: _Records, world: World, decisions: Decisions, record) -> None:
-    """Append one control step to ``records``: a trajectory row per vehicle, the step's record
-    (sim.scheduler's StepRecord) and a row per game, counting the steps each pair played."""
+def _record_step(records: _Records, world: World, step) -> None:
+    """Append one control step (sim.network_scheduler's NetworkStep) to ``records``: a trajectory
+    row per vehicle, each junction's StepRecord and a row per game, counting the steps each pair
+    played."""
+    decisions = step.decisions
     for i, vid in enumerate(world.ids):
         records.traj_rows.append((world.time, vid, world.x[i], world.y[i], world.v[i], world.a[i],
                                   world.heading[i], world.lanes[i], world.role[i],
                                   world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
-    records.step_rows.append(dataclasses.astuple(record))
-    for a, b in decisions.pairs:
-        records.game_rows.append((world.time, a, b))
+    records.step_rows.extend(dataclasses.astuple(record) for record in step.records)
+    for (a, b), junction in zip(decisions.pairs, step.pair_junctions):
+        records.game_rows.append((world.time, a, b, junction))
         key = (a, b) if a < b else (b, a)
         records.game_steps[key] = records.game_steps.get(key, 0) + 1
 
@@ -418,13 +421,15 @@ def _summary(scn: Scenario, infos: dict, tables: _Tables, diagnostics: Diagnosti
     s = scn.scenario
     tripinfo, collisions, steps = tables.tripinfo, tables.collisions, tables.steps
     vehicles, pairs = tables.vehicles, tables.pairs
+    step_compute = steps.groupby("time", sort=False)["compute_ms"].sum()  # [ms]
     summary = {
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
         "settings": resolved_settings(scn),
         "versions": versions(),
         "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
                    "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
-                   "control_steps": int(len(steps)), "deadline_misses": int(steps["deadline_missed"].sum()),
+                   "control_steps": int(steps["time"].nunique()), "junction_steps": int(len(steps)),
+                   "deadline_misses": int(steps["deadline_missed"].sum()),
                    "fallbacks": int(steps["fallback"].sum()),
                    "steps_with_deferred_work": int(steps["deferred"].gt(0).sum()),
                    "safety_interventions": diagnostics.safety_interventions,
@@ -433,8 +438,9 @@ def _summary(scn: Scenario, infos: dict, tables: _Tables, diagnostics: Diagnosti
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,
             "min_ttc_ssm": _num(pairs["min_ttc_ssm"].min()) if len(pairs) else None,
-            "compute_ms_median": _num(steps["compute_ms"].median()),
-            "compute_ms_p95": _num(steps["compute_ms"].quantile(0.95)),
+            # [ms] per control step, summed over the junctions' controllers
+            "compute_ms_median": _num(step_compute.median()),
+            "compute_ms_p95": _num(step_compute.quantile(0.95)),
         },
     }
     if gui is not None:

@@ -23,8 +23,8 @@ import pandas as pd
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.report import figures as fig
-from intersection_cosim.results.layout import (PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE, VEHICLES_FILE,
-                                               run_folder)
+from intersection_cosim.results.layout import (PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE,
+                                               TRAJECTORIES_FILE, VEHICLES_FILE, run_folder)
 from intersection_cosim.results.sweep_folder import load_spec, sweep_table
 
 REPORT_FILE = "report.md"
@@ -79,7 +79,8 @@ COLUMN_FORMATS = (
     *((name, f"{name.replace('_', ' ')} [-]", None) for name in (
         "collisions", "arrived", "vehicles", "departed", "deadline_misses", "fallbacks", "control_steps",
         "game_steps", "seeds", "runs_ok", "ssm_encounters", "late_or_stuck", "steps_with_deferred_work",
-        "safety_interventions", "box_rule_clearances")),
+        "safety_interventions", "box_rule_clearances", "junction_steps", "games")),
+    ("junction", "junction", "text"), ("mean_delay", "mean delay [s]", 2),
 )
 
 
@@ -175,8 +176,8 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
     for _, row in ok.iterrows():
         steps = run_folder(folder, row["run_id"]) / STEPS_FILE
         if steps.is_file():
-            samples.setdefault(row["controller"], []).append(pd.read_csv(steps, usecols=["compute_ms"])["compute_ms"]
-                                                             .to_numpy(float))
+            per_step = pd.read_csv(steps).groupby("time", sort=False)["compute_ms"].sum()  # [ms] over the junctions
+            samples.setdefault(row["controller"], []).append(per_step.to_numpy(float))
     png = figs / "compute_time_hist.png"
     fig.compute_time_histogram({c: np.concatenate(v) for c, v in samples.items()}, png,
                                title="Controller compute time per step (all finished runs)",
@@ -256,7 +257,9 @@ def run_report(folder: Path) -> Path:
     figures = [("trajectories (points every 0.5 s, colour = time)", fig.trajectory_figure(folder, figs / "trajectory.png",
                                                                           f"Trajectories: {title}")),
                ("velocity (entry into and exit from the conflict zone marked)", fig.velocity_figure(folder, figs / "velocity.png", f"Velocity: {title}"))]
-    steps = pd.read_csv(folder / STEPS_FILE, usecols=["compute_ms"])["compute_ms"].to_numpy(float)
+    step_rows = pd.read_csv(folder / STEPS_FILE)
+    # [ms] per control step, summed over the junctions' controllers (steps.csv has one row per junction)
+    steps = step_rows.groupby("time", sort=False)["compute_ms"].sum().to_numpy(float)
     budget = summary.get("settings", {}).get("controller", {}).get("budget_ms")
     figures.append(("compute time per control step",
                     fig.compute_time_histogram({summary.get("controller", "controller"): steps},
@@ -267,6 +270,7 @@ def run_report(folder: Path) -> Path:
     lines = [f"# Run report: {title}", "", f"- folder: `{folder}`{gui}",
              f"- versions: {', '.join(f'{k} {v}' for k, v in summary.get('versions', {}).items())}", "",
              "## Summary", "", markdown_table(counts), "", markdown_table(metrics), ""]
+    lines += _junction_section(folder, summary, step_rows, figs, figures, title)
     for name, caption in ((VEHICLES_FILE, "Vehicles"), (PAIRS_FILE, "Conflicting pairs")):
         if (folder / name).is_file():
             lines += [f"## {caption}", "", markdown_table(pd.read_csv(folder / name, dtype={"vehicle": str})), ""]
@@ -276,6 +280,32 @@ def run_report(folder: Path) -> Path:
         lines += [f"### {caption}", "", f"![{rel.stem}]({rel})", ""]
     lines += _animation_section(folder)
     return _write(folder / REPORT_FILE, "\n".join(lines))
+
+
+def _junction_section(folder: Path, summary: dict, steps: pd.DataFrame, figs: Path, figures: list,
+                      title: str) -> list[str]:
+    """A run on a net file with several managed junctions: the per-junction table, and the
+    network figure (junctions coloured by mean delay) appended to ``figures``."""
+    settings = summary.get("settings", {})
+    network = settings.get("network", {})
+    if not network.get("file") or len(network.get("junctions") or ()) < 2:
+        return []
+    from intersection_cosim.network.build import NET_FILE
+    from intersection_cosim.network.junction_net import load_movements
+    from intersection_cosim.report.network_figure import junction_delay_figure
+    from intersection_cosim.results.junction_metrics import junction_table
+
+    net = folder / NET_FILE
+    movements = load_movements(net, tuple(network["junctions"]), network["control_range"])
+    traj = pd.read_csv(folder / TRAJECTORIES_FILE, usecols=["vehicle", "path", "speed"], dtype={"vehicle": str})
+    v_free = float(settings.get("model", {}).get("v_max", 10.0))  # [m/s]
+    table = junction_table(steps, traj, movements, settings["controller"]["period"], v_free)
+    figures.append(("junctions coloured by the mean delay of the vehicles that passed them",
+                    junction_delay_figure(net, table, figs / "junction_delay.png", f"Mean delay per junction: {title}")))
+    return ["## Junctions", "",
+            f"One controller per junction. Delay: time lost against {v_free:g} m/s while on the junction's "
+            "movement paths (control range, junction, exit lane); compute time per junction and control step.",
+            "", markdown_table(table), ""]
 
 
 def _animation_section(folder: Path) -> list[str]:

@@ -21,7 +21,7 @@ from typing import Any
 import sumolib
 
 from intersection_cosim.errors import InputError
-from intersection_cosim.network.junction_net import load_movements
+from intersection_cosim.network.junction_net import junction_table, load_movements
 from intersection_cosim.scenario.model import PAPER_JUNCTION, SIGNALS, NetworkSettings
 
 NETWORK_KEYS = ("file", "junctions", "signals", "control_range", "routes")
@@ -99,10 +99,19 @@ def nearest(name: str, known: list[str], n: int = 3) -> str:
     return "the net has " + ", ".join(repr(c) for c in sorted(known)[:n]) + (", ..." if len(known) > n else "")
 
 
+def _all_junctions(src: str, net_file: str) -> tuple[str, ...]:
+    """``junctions = "all"``: every junction ``intersection-cosim junctions`` lists as manageable."""
+    table = junction_table(net_file)
+    ids = tuple(str(j) for j in table.loc[table["manageable"], "id"])
+    if not ids:
+        raise InputError(src, "network.junctions", "all", "the net has no manageable junction")
+    return ids
+
+
 def _junctions(src: str, value: Any, net: sumolib.net.Net) -> tuple[str, ...]:
     field = "network.junctions"
     if not isinstance(value, list) or not value or not all(isinstance(j, str) and j for j in value):
-        raise InputError(src, field, value, 'must be a non-empty list of junction ids, like ["0"]')
+        raise InputError(src, field, value, 'must be "all" or a non-empty list of junction ids, like ["0"]')
     if len(set(value)) != len(value):
         raise InputError(src, field, value, "lists a junction twice")
     known = [node.getID() for node in net.getNodes() if node.getType() != "dead_end"]
@@ -187,7 +196,8 @@ def network_settings(src: str, table: Any, base: Path) -> NetworkSettings:
     routes = None
     if "routes" in table:
         routes = _routes(src, table["routes"], resolve_path(src, "network.routes", table["routes"], base), net_file)
-    settings = NetworkSettings(file=net_file, junctions=_junctions(src, table["junctions"], net),
+    junctions = _all_junctions(src, net_file) if table["junctions"] == "all" else _junctions(src, table["junctions"], net)
+    settings = NetworkSettings(file=net_file, junctions=junctions,
                                signals=_signals(src, table.get("signals", "off")),
                                control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes)
     _check_manageable(src, settings)

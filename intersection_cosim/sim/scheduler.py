@@ -29,6 +29,7 @@ class StepRecord:
     fallback: bool  # the applied decisions are the fallback
     deferred: int = 0  # games / solo solves the controller left out to meet the budget
     qp_solves: int = 0  # QPs decide solved (its work; kept when the fallback replaces its decisions)
+    junction: str = ""  # the managed junction whose controller this is (sim.network_scheduler)
 
 
 class StepScheduler:
@@ -58,6 +59,9 @@ class StepScheduler:
             decisions = self.controller.fallback(world)
             decisions.fallback = True
             if played is not None:
+                # decide has already forgotten the vehicles it released: hand them back to SUMO
+                # all the same, or they would keep their last command with SUMO's checks off
+                decisions.release = sorted(set(decisions.release) | set(played.release))
                 decisions.games, decisions.iterations = played.games, played.iterations
                 decisions.deferred = played.deferred
                 decisions.qp_solves += played.qp_solves

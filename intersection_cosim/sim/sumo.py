@@ -311,7 +311,9 @@ class SumoSimulation:
             arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
             path_ids.append(pid)
             lanes.append(lane)
-            role = self.movements.role(lane)
+            # on its path's exit lane a vehicle has left its junction, though that lane may be
+            # the next managed junction's approach (a corridor)
+            role = OUTSIDE if lane == path.lanes[-1] else self.movements.role(lane)
             if info is not None and role == READY and not info.exit_fixed:
                 exit_choices[vid] = self.movements.options(pid)
             else:
@@ -319,7 +321,22 @@ class SumoSimulation:
             roles.append(role)
         return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
-                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"])
+                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"],
+                     exit_free=self._exit_free(exit_choices, roles, ids))
+
+    def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
+        """Per exit lane (SUMO lane id) a READY vehicle may take: ([m] from the lane's start to the
+        rear of the last vehicle on it, SUMO's whoever drives it, [m/s] that vehicle's speed); the
+        lane's length and inf if it is empty."""
+        lanes = {self.paths[self.movements.siblings.get((self.current_path[vid], option), self.current_path[vid])].lanes[-1]
+                 for vid, role in zip(ids, roles) if role == READY for option in exit_choices[vid]}
+        free = {}
+        veh = self.api.vehicle
+        for lane in sorted(lanes):
+            rears = [(veh.getLanePosition(v) - veh.getLength(v), veh.getSpeed(v))
+                     for v in self.api.lane.getLastStepVehicleIDs(lane)]
+            free[lane] = (max(0.0, min(rears)[0]), min(rears)[1]) if rears else (self.api.lane.getLength(lane), math.inf)
+        return free
 
     # --- write -----------------------------------------------------------------------------
     def command(self, decisions: Decisions) -> None:
@@ -330,7 +347,9 @@ class SumoSimulation:
         for vid, lane in decisions.exit_lane.items():
             if vid in self.vehicles:
                 self.vehicles[vid].exit_lane = lane
-        for vid in decisions.release:
+        # a commanded vehicle on no managed path is in no controller's World: SUMO's again
+        lost = [vid for vid in self.commands if vid not in self.current_path]
+        for vid in [*decisions.release, *lost]:
             if self.commands.pop(vid, None) is not None and vid in self.states:
                 self.api.vehicle.setSpeed(vid, -1)  # SUMO's own driver model takes over again
                 self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)

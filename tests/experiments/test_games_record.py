@@ -15,7 +15,8 @@ def test_games_csv_has_one_row_per_game_of_steps_csv(tmp_path):
     run_scenario(with_overrides(load_scenario(SCENARIOS / "case1_A.toml"), controller="nash", budget_ms=2000.0), out)
     games = pd.read_csv(out / "games.csv")
     steps = pd.read_csv(out / "steps.csv")
-    assert list(games.columns) == ["time", "vehicle_a", "vehicle_b"]
+    assert list(games.columns) == ["time", "vehicle_a", "vehicle_b", "junction"]
+    assert set(games["junction"]) == {"C"}  # the generated net's one junction
     per_step = games.groupby("time").size()
     played = steps.set_index("time")["games"]
     assert per_step.to_dict() == played[played > 0].to_dict()

@@ -218,19 +218,18 @@ def test_the_paper_and_demand_scenarios_run_on_the_generated_net(path):
 
 @pytest.mark.parametrize("path", NET_FILE_SCENARIOS, ids=lambda p: p.stem)
 def test_the_net_file_scenarios_route_every_flow_through_their_junction(path):
-    """Each shipped net-file scenario names an existing net and junction, and SUMO's router found
-    a route for every flow that passes the managed junction (its edges enter and leave it)."""
+    """Each shipped net-file scenario names an existing net and junctions, and SUMO's router found
+    a route for every flow that passes a managed junction (its edges enter and leave it)."""
     import sumolib
 
     scn = load_scenario(path)
     assert scn.network.file is not None and Path(scn.network.file).is_file()
     net = sumolib.net.readNet(scn.network.file)
-    (junction,) = scn.network.junctions
-    incoming = {e.getID() for e in net.getNode(junction).getIncoming()}
-    outgoing = {e.getID() for e in net.getNode(junction).getOutgoing()}
+    nodes = [net.getNode(j) for j in scn.network.junctions]
     assert len(scn.flows) >= 6
     for f in scn.flows:
-        assert f.route and incoming & set(f.route) and outgoing & set(f.route), f.id
+        assert f.route and any({e.getID() for e in n.getIncoming()} & set(f.route)
+                               and {e.getID() for e in n.getOutgoing()} & set(f.route) for n in nodes), f.id
 
 
 def test_sumo_home_is_the_package_home_unless_the_variable_names_a_sumo_installation(monkeypatch, tmp_path):
@@ -246,3 +245,20 @@ def test_sumo_home_is_the_package_home_unless_the_variable_names_a_sumo_installa
     monkeypatch.setenv("SUMO_HOME", str(tmp_path / "sumo_data"))
     assert sumo_home() == str(sumo.SUMO_HOME)
     assert os.path.isfile(os.path.join(str(sumo.SUMO_HOME), "bin", "sumo"))
+
+
+def test_junctions_all_is_every_manageable_junction_and_a_wrong_word_is_an_error(tmp_path):
+    from intersection_cosim.errors import InputError
+    from intersection_cosim.network.junction_net import junction_table
+
+    scn = load_scenario(Path(__file__).resolve().parents[2] / "scenarios" / "grid_low.toml")
+    listed = junction_table(scn.network.file)
+    assert scn.network.junctions == tuple(listed.loc[listed["manageable"], "id"])
+    assert scn.network.junctions == ("A0", "A1", "A2", "B0", "B1", "B2", "C0", "C1", "C2")
+    bad = tmp_path / "bad.toml"
+    bad.write_text((Path(__file__).resolve().parents[2] / "scenarios" / "grid_low.toml").read_text()
+                   .replace('junctions = "all"', 'junctions = "every"')
+                   .replace("../sumo_networks", str(Path(__file__).resolve().parents[2] / "sumo_networks")))
+    with pytest.raises(InputError) as err:
+        load_scenario(bad)
+    assert "network.junctions" in str(err.value) and "every" in str(err.value)

@@ -43,7 +43,7 @@ def test_csv_columns(case1a_run):
     assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm",
                                  "pet_ssm", "game_steps"]
     assert cols["steps.csv"] == ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback",
-                                     "deferred", "qp_solves"]
+                                     "deferred", "qp_solves", "junction"]
 
 
 def test_all_arrive_no_collision_travel_time_is_tripinfo(case1a_run):

@@ -25,7 +25,7 @@ class _Controller:
         time.sleep(self.sleep_s)
         if self.fail:
             raise RuntimeError("solver crashed")
-        return Decisions(accel={"V1": 1.0}, games=2, iterations=5, pairs=[("V1", "V2")])
+        return Decisions(accel={"V1": 1.0}, games=2, iterations=5, pairs=[("V1", "V2")], release=["V0"])
 
     def fallback(self, world):
         return Decisions(accel={"V1": -2.0})
@@ -61,3 +61,11 @@ def test_realtime_paces_to_the_wall_clock():
     fast.pace(0.0)
     fast.pace(5.0)
     assert time.perf_counter() - start < 0.05
+
+
+def test_an_overrun_step_still_releases_the_vehicles_decide_let_go():
+    """decide forgets the vehicles it releases; the fallback that replaces its decisions must
+    still hand them to SUMO, or they keep their last command with SUMO's checks off (a rear-end
+    collision on the grid under load, between two junctions)."""
+    d, rec = StepScheduler(_Controller(sleep_s=0.01), budget_ms=1.0).step(_world())
+    assert rec.fallback and d.release == ["V0"] and d.accel == {"V1": -2.0}

@@ -183,3 +183,17 @@ def test_a_sender_rejected_for_resync_seconds_is_taken_again(movements):
     # taken at the spoofed state 0.5 s into the attack, then at the true one 0.5 s after it
     assert ch.counts["rejected"] == 5 and ch.counts["resyncs"] == 2 and ch.counts["false_rejections"] == 5
     assert not ch.tracks["A"].suspect and seen[-1].s[0] == pytest.approx(20.0 + 8.0 * times[-1])
+
+
+def test_a_per_lane_field_is_the_roadside_view_and_carries_whole(movements):
+    """exit_free is read by the junction's own sensing, not sent by vehicles: the channel keeps
+    every lane's entry even for vehicles it has not heard from (else the exit rule would see
+    every exit lane empty under V2X)."""
+    ch = Channel(V2XSettings(latency=0.1), movements, PERIOD, seed=1)
+    w = dataclasses.replace(truth(movements, 0.0, 20.0, 10.0), exit_free={"E1_0": (3.5, 0.0), "E2_0": (80.0, 9.0)})
+    ch.uplink(w)
+    later = dataclasses.replace(truth(movements, 0.1, 21.0, 10.0), exit_free={"E1_0": (4.0, 0.5)})
+    ch.uplink(later)
+    assert ch.observe(w).ids == []  # nothing has arrived yet
+    assert ch.observe(w).exit_free == {"E1_0": (3.5, 0.0), "E2_0": (80.0, 9.0)}
+    assert ch.observe(later).ids == ["A"] and ch.observe(later).exit_free == {"E1_0": (4.0, 0.5)}

@@ -1,0 +1,122 @@
+"""One controller per managed junction: split the World by junction, merge the Decisions.
+
+:class:`PerJunction` composes controllers of one kind (made by the registry's factory), one per
+managed junction of the run's movements. Each gets a ControlContext with its own junction's
+movements (:func:`~intersection_cosim.network.by_junction.junction_movements`) and, every step,
+the sub-World of the vehicles whose movement path crosses its junction (:meth:`PerJunction.split`):
+a vehicle belongs to one junction at a time, the one whose path it is on. The simulator adapter
+moves a vehicle onto the next junction's path when it comes within that junction's control
+range, so a vehicle in two ranges at once belongs to the junction it reaches first; between the
+ranges SUMO drives it. The step scheduler (``sim.network_scheduler``) times each junction's
+controller against its own budget; :meth:`decide` runs them all under one deadline for callers
+without a scheduler. With one managed junction the one controller sees the World unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable
+
+import numpy as np
+
+from intersection_cosim.control.base import ControlContext, Controller, Decisions, Diagnostics, World
+from intersection_cosim.network.by_junction import junction_movements, path_junction
+
+
+def sub_world(world: World, keep: list[int]) -> World:
+    """The World of the vehicles at indices ``keep`` (in their order); ``world`` itself if all."""
+    if len(keep) == len(world):
+        return world
+    idx = np.asarray(keep, dtype=np.intp)
+    ids = [world.ids[k] for k in keep]
+    desired = world.desired_speed[idx] if world.desired_speed is not None else None
+    return dataclasses.replace(
+        world, ids=ids, path_ids=[world.path_ids[k] for k in keep], s=world.s[idx], v=world.v[idx],
+        a=world.a[idx], x=world.x[idx], y=world.y[idx], heading=world.heading[idx], kappa=world.kappa[idx],
+        role=[world.role[k] for k in keep], lanes=[world.lanes[k] for k in keep] if world.lanes else [],
+        exit_choices={vid: world.exit_choices[vid] for vid in ids if vid in world.exit_choices},
+        desired_speed=desired)
+
+
+def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> Decisions:
+    """The Decisions of every junction as one: a vehicle one junction releases because it is now
+    on another junction's path (in that junction's sub-World) is not released. One junction's
+    Decisions are returned as they are."""
+    if len(parts) == 1:
+        return next(iter(parts.values()))
+    merged = Decisions()
+    owner = {vid: j for j, w in worlds.items() for vid in w.ids}
+    notes = []
+    for j, d in parts.items():
+        merged.accel.update(d.accel)
+        merged.exit_lane.update(d.exit_lane)
+        merged.release.extend(vid for vid in d.release if owner.get(vid, j) == j)
+        merged.games += d.games
+        merged.iterations += d.iterations
+        merged.pairs.extend(d.pairs)
+        merged.deferred += d.deferred
+        merged.qp_solves += d.qp_solves
+        merged.fallback = merged.fallback or d.fallback
+        if d.note:
+            notes.append(f"{j}: {d.note}")
+    merged.release.sort()
+    merged.note = "; ".join(notes)
+    return merged
+
+
+def merge_diagnostics(parts: list[Diagnostics]) -> Diagnostics:
+    """The run's Diagnostics over every junction's controller (games in junction order)."""
+    def total(name: str) -> int | None:
+        values = [getattr(d, name) for d in parts]
+        return None if all(v is None for v in values) else sum(v or 0 for v in values)
+
+    conv = [d.convergence for d in parts]
+    convergence = None if all(c is None for c in conv) else tuple(r for c in conv for r in (c or ()))
+    return Diagnostics(convergence, total("safety_interventions"), total("box_rule_clearances"))
+
+
+class PerJunction:
+    """Controllers of one kind, one per managed junction (see the module docstring).
+
+    ``factory`` makes a new controller; the first one made tells the junction type and whether
+    the kind commands vehicles.
+    """
+
+    def __init__(self, factory: Callable[[], Controller]):
+        self._factory = factory
+        self._first: Controller | None = factory()
+        self.junction_type = self._first.junction_type
+        self.controls_vehicles = self._first.controls_vehicles
+        self.parts: dict[str, Controller] = {}  # junction id -> its controller, after setup
+        self._movements = None
+
+    def setup(self, context: ControlContext) -> None:
+        self._movements = context.movements
+        self.parts = {}
+        for j in context.movements.junctions:
+            part = self._first if self._first is not None else self._factory()
+            self._first = None
+            part.setup(dataclasses.replace(context, movements=junction_movements(context.movements, j)))
+            self.parts[j] = part
+
+    def split(self, world: World) -> dict[str, World]:
+        """The sub-World of each junction (every junction, maybe empty), by the vehicles' paths."""
+        if len(self.parts) == 1:
+            return {next(iter(self.parts)): world}
+        keep: dict[str, list[int]] = {j: [] for j in self.parts}
+        for k, pid in enumerate(world.path_ids):
+            keep[path_junction(self._movements, pid)].append(k)
+        return {j: sub_world(world, ks) for j, ks in keep.items()}
+
+    def decide(self, world: World, deadline: float) -> Decisions:
+        worlds = self.split(world)
+        return merge_decisions({j: self.parts[j].decide(w, deadline) for j, w in worlds.items()}, worlds)
+
+    def fallback(self, world: World) -> Decisions:
+        worlds = self.split(world)
+        merged = merge_decisions({j: self.parts[j].fallback(w) for j, w in worlds.items()}, worlds)
+        merged.fallback = True
+        return merged
+
+    def diagnostics(self) -> Diagnostics:
+        return merge_diagnostics([p.diagnostics() for p in self.parts.values()])
