@@ -35,6 +35,11 @@ class World:
     lanes: list[str] = field(default_factory=list)  # SUMO lane id of each vehicle
     exit_choices: dict[str, tuple[str, ...]] = field(default_factory=dict)  # vehicle -> exit lanes it may still take
     desired_speed: np.ndarray | None = None  # [m/s] per vehicle (J_e, Eq. 24); NaN / None: ModelSettings.v_max
+    human: np.ndarray | None = None  # [-] bool per vehicle: a human driver (SUMO drives it; never a player); None: none
+
+    def is_human(self, k: int) -> bool:
+        """Whether vehicle k is a human driver (observed and predicted, never commanded)."""
+        return self.human is not None and bool(self.human[k])
 
     def __len__(self) -> int:
         return len(self.ids)

@@ -31,6 +31,12 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + v_L^2 + 2 b (gap - margin)), with
   b = |a_min| and tau = the control period, so it can always stop behind a leader that brakes as
   hard as it can.
+* **Humans.** A human driver (``World.human``) will not yield: its plan is the prediction of
+  :func:`~intersection_cosim.models.prediction.human_accelerations` (its present acceleration
+  clipped to [0, a_max], never braking), it ranks ahead of every AV at a crossing (like a vehicle
+  SUMO drives again), and it is never the one made to yield: if the AV can still stay out of the
+  crossing it does; if it cannot (committed) it holds back as hard as it may, and SUMO's own
+  model makes the human brake for the vehicle already in the crossing.
 """
 
 from __future__ import annotations
@@ -46,6 +52,7 @@ from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.cost import time_to_conflict_point
+from intersection_cosim.models.prediction import human_accelerations
 from intersection_cosim.models.settings import ModelSettings
 
 
@@ -265,6 +272,8 @@ class SafetyFilter:
                               _Crossing(self._rank(world, kj, tj), kj, lat.rj, lat.zone_j[0])),
                              key=lambda c: (c.rank, c.k, c.row, c.enter), reverse=True)
         for n, c in enumerate(lower_first):
+            if world.is_human(c.k):
+                continue  # a human is never made to yield (nothing commands it)
             a = self._stay_out(world, c.k, float(self.s_stop[relations.rows.pidx[c.row]]), c.enter)
             if a is not None:
                 cap[ids[c.k]] = min(cap.get(ids[c.k], math.inf), a)
@@ -278,6 +287,12 @@ class SafetyFilter:
     def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan]) -> Plan | None:
         """The plan the filter checks for vehicle k: this step's, or constant speed for one
         SUMO drives again (it has left the junction); None for one without a plan."""
+        if world.is_human(k):
+            v_cap = float(world.desired_speed[k]) if world.desired_speed is not None and \
+                math.isfinite(float(world.desired_speed[k])) else self.model.v_max
+            a = human_accelerations(float(world.v[k]), float(world.a[k]), self.problem.a_max, max(v_cap, float(world.v[k])),
+                                    self.problem.steps, self.problem.dt)
+            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.problem.dt)
         plan = plans.get(world.ids[k])
         if plan is None and world.role[k] == "outside":
             return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.problem.steps), self.problem.dt)
@@ -300,7 +315,7 @@ class SafetyFilter:
         crossing) comes first: it cannot yield. One inside ranks by when it entered (first in,
         first out, like a queue: the queue holds even against a game's order, or waits could
         close a cycle), ahead of every vehicle not yet in."""
-        if world.role[k] == "outside":
+        if world.role[k] == "outside" or world.is_human(k):
             return (-1, 0.0, world.ids[k])
         entered = self.entered.get(world.ids[k])
         return (0, entered, world.ids[k]) if entered is not None else (1, t_in, world.ids[k])

@@ -43,7 +43,7 @@ from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLU
                                                TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.sumo_outputs import read_collisions, read_ssm, read_tripinfo
-from intersection_cosim.scenario.load import default_exit_lane, generate_flow_vehicles
+from intersection_cosim.scenario.load import default_exit_lane, draw_drivers, generate_flow_vehicles
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
 
@@ -196,7 +196,7 @@ def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     net, movements = _movements(scn, controller)
     shutil.copyfile(net, folder / NET_FILE)
     rng = np.random.default_rng(s.seed)
-    flow_vehicles = generate_flow_vehicles(scn, rng)
+    flow_vehicles = draw_drivers(scn, generate_flow_vehicles(scn, rng))
     write_routes(folder / ROUTE_FILE, scn, movements.paths, flow_vehicles)
     write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn)
     return _Inputs(controller, net, movements, flow_vehicles)
@@ -218,25 +218,30 @@ def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
 def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -> dict[str, dict]:
     """The keyword arguments of each vehicle's ``sim.sumo.VehicleInfo``, by id: the scenario's
     vehicles, then those of its flows. On a net file a vehicle has no intended path: the adapter
-    picks it from the vehicle's lane and route when it reaches a managed junction."""
+    picks it from the vehicle's lane and route when it reaches a managed junction. A human driver
+    is never controlled, whatever the controller."""
     specs: dict[str, dict] = {}
     for v in scn.vehicles:
         if v.route is not None:
             specs[v.id] = dict(approach="", lane="", movement="", kappa=v.kappa, intended_path=None,
-                               controlled=controlled, desired_speed=v.desired_speed, route=frozenset(v.route))
+                               controlled=controlled and v.driver == "av", desired_speed=v.desired_speed,
+                               route=frozenset(v.route), driver=v.driver)
             continue
         specs[v.id] = dict(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
-                           intended_path=v.path_id, controlled=controlled,
+                           intended_path=v.path_id, controlled=controlled and v.driver == "av", driver=v.driver,
                            exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
                            start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
     for fv in flow_vehicles:
+        driver = fv.get("driver", "av")
         if fv.get("route") is not None:
             specs[fv["id"]] = dict(approach="", lane="", movement="", kappa=fv["kappa"], intended_path=None,
-                                   controlled=controlled, route=frozenset(fv["route"]))
+                                   controlled=controlled and driver == "av", route=frozenset(fv["route"]),
+                                   driver=driver)
             continue
         pid = str(PathId(fv["approach"], fv["lane"], fv["movement"], default_exit_lane(fv["lane"], fv["movement"])))
         specs[fv["id"]] = dict(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
-                               kappa=fv["kappa"], intended_path=pid, controlled=controlled)
+                               kappa=fv["kappa"], intended_path=pid, controlled=controlled and driver == "av",
+                               driver=driver)
     return specs
 
 

@@ -90,6 +90,7 @@ class VehicleInfo:
     start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
     desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
     route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)
+    driver: str = "av"  # [-] "av" or "human" (a human is never controlled: SUMO's model drives it)
 
 
 @dataclass
@@ -183,7 +184,7 @@ class SumoSimulation:
         role = self.movements.role(lane)
         if role == PASSING:
             pid = self._lane_to_paths[lane][0]
-            if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane:
+            if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane and info.driver != "human":
                 self._switch_exit_lane(vid, lane, pid, info)
                 return
             self.current_path[vid] = pid
@@ -293,6 +294,7 @@ class SumoSimulation:
         n = len(ids)
         s = np.empty(n)
         arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
+        human = np.zeros(n, bool)
         path_ids, roles, lanes = [], [], []
         exit_choices: dict[str, tuple[str, ...]] = {}
         for i, vid in enumerate(ids):
@@ -309,26 +311,28 @@ class SumoSimulation:
             info = self.vehicles.get(vid)
             arr["kappa"][i] = info.kappa if info else 0.5
             arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
+            human[i] = info is not None and info.driver == "human"
             path_ids.append(pid)
             lanes.append(lane)
             role = self.movements.role(lane)
-            if info is not None and role == READY and not info.exit_fixed:
+            if info is not None and role == READY and not info.exit_fixed and info.driver != "human":
                 exit_choices[vid] = self.movements.options(pid)
             else:
                 exit_choices[vid] = (path.exit_lane,)
             roles.append(role)
         return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
-                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"])
+                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human)
 
     # --- write -----------------------------------------------------------------------------
     def command(self, decisions: Decisions) -> None:
         """Take a controller's decisions: an acceleration held until the next decision, and exit lanes."""
         for vid, accel in decisions.accel.items():
-            if vid in self.states:
+            info = self.vehicles.get(vid)
+            if vid in self.states and (info is None or info.driver != "human"):  # a human is never commanded
                 self.commands[vid] = float(accel)
         for vid, lane in decisions.exit_lane.items():
-            if vid in self.vehicles:
+            if vid in self.vehicles and self.vehicles[vid].driver != "human":
                 self.vehicles[vid].exit_lane = lane
         for vid in decisions.release:
             if self.commands.pop(vid, None) is not None and vid in self.states:
