@@ -266,7 +266,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
 
     s, controller = scn.scenario, inputs.controller
     specs = _vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
-    infos = {vid: VehicleInfo(**spec) for vid, spec in specs.items()}
+    infos = {vid: VehicleInfo(**spec, vtype=spec.get("driver", "av")) for vid, spec in specs.items()}
     period_steps = _period_steps(scn)
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
@@ -353,7 +353,8 @@ def _result_tables(scn: Scenario, folder: Path, inputs: _Inputs, simulated: _Sim
     vehicles = vehicle_table(_with_movements(simulated.infos, simulated.final_paths, inputs.paths), tripinfo,
                              simulated.exit_lanes, collisions)
     pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, scn.model.vehicle_width),
-                       scn.model, ssm, simulated.records.game_steps)
+                       scn.model, ssm, simulated.records.game_steps,
+                       {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()})
     return _Tables(traj, steps, tripinfo, collisions, vehicles, pairs)
 
 

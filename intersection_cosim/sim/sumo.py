@@ -91,6 +91,7 @@ class VehicleInfo:
     desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
     route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)
     driver: str = "av"  # [-] "av" or "human" (a human is never controlled: SUMO's model drives it)
+    vtype: str = "av"  # [-] its SUMO vType id (of the run's route file, or the user's own)
 
 
 @dataclass
@@ -232,7 +233,7 @@ class SumoSimulation:
         veh = self.api.vehicle
         kappa = veh.getParameter(vid, "kappa") or "0.5"  # a <param key="kappa"> of the vehicle, else moderate
         info = VehicleInfo("", "", "", float(kappa), None, self.adopt_controlled,
-                           route=frozenset(veh.getRoute(vid)))
+                           route=frozenset(veh.getRoute(vid)), vtype=veh.getTypeID(vid))
         self.vehicles[vid] = info
         return info
 
