@@ -93,7 +93,8 @@ def resolved_settings(scn: Scenario) -> dict:
     """The settings a run of ``scn`` records in summary.json's ``settings`` (scenario, network,
     controller, model and the controller's [controller.*] tables after defaults and overrides):
     what makes two runs the same run."""
-    return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "controller": to_dict(scn.controller),
+    return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "human": to_dict(scn.human),
+            "controller": to_dict(scn.controller),
             "model": to_dict(scn.model),
             "controller_settings": to_dict(scn.controller_settings)
             if dataclasses.is_dataclass(scn.controller_settings) else None}
