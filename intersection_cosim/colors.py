@@ -11,6 +11,7 @@ KAPPA_RANGE = (0.0, 1.0)  # [-] the scenario files' range of kappa
 # (kappa [-], RGB) stops of the kappa scale, linearly interpolated between them
 KAPPA_STOPS = ((0.0, (40, 90, 210)), (0.5, (150, 60, 170)), (1.0, (215, 30, 30)))
 UNCONTROLLED = (150, 150, 150)  # SUMO's own driver model drives the vehicle
+HUMAN = (40, 170, 80)  # a human driver ([[vehicle]] driver = "human" or a flow's av_share < 1): SUMO drives it
 GAME = (255, 190, 0)  # a pair that plays a game this step
 
 

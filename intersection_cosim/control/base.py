@@ -38,6 +38,11 @@ class World:
     exit_free: Mapping[str, tuple[float, float]] = field(default_factory=dict)  # per exit lane (SUMO id) a
     #   READY vehicle may take: ([m] free length from the lane's start to the rear of its last
     #   vehicle, [m/s] that vehicle's speed); (lane length, inf) if empty; a lane not in it is free
+    human: np.ndarray | None = None  # [-] bool per vehicle: a human driver (SUMO drives it; never a player); None: none
+
+    def is_human(self, k: int) -> bool:
+        """Whether vehicle k is a human driver (observed and predicted, never commanded)."""
+        return self.human is not None and bool(self.human[k])
 
     def __len__(self) -> int:
         return len(self.ids)

@@ -30,6 +30,13 @@ Every control period, for the vehicles that are ready to enter or passing the co
 Decisions are written back as accelerations (held over the period; the adapter turns them into
 exact speed commands) and exit lanes (enforced by the adapter when the vehicle enters the
 junction). A vehicle that has left the conflict zone is handed back to SUMO's driver model.
+
+**Human drivers** (``World.human``) are observed, never players: they get no decision, play no
+game and are never commanded. A human leader enters its AV follower's J_log as a fixed (constant
+speed) trajectory (control/players.py); a crossing with a human is guarded by the safety filter,
+which predicts the human by :func:`~intersection_cosim.models.prediction.human_accelerations` and
+never lets the AV claim the crossing against it (control/safety.py). The pair plays no game, so
+the human's trajectory does not enter the AV's J_lat (a vehicle in no game plans with k_lat = 0).
 """
 
 from __future__ import annotations
@@ -146,7 +153,7 @@ class GameController:
     def _decide(self, world: World, deadline: float) -> Decisions:
         self._decided_at, self._applied = world.time, dict(self.memory.plans)  # for the fallback
         self._held_before, self._held = self._held, frozenset()
-        active = [k for k in range(len(world)) if world.role[k] != "outside"]
+        active = [k for k in range(len(world)) if world.role[k] != "outside" and not world.is_human(k)]
         decisions = Decisions(release=self._release(world, active))
         self.safety.record_entries(world)
         if not active:
@@ -265,7 +272,7 @@ class GameController:
         active = set()
         for k in range(len(world)):
             vid = world.ids[k]
-            if world.role[k] == "outside":
+            if world.role[k] == "outside" or world.is_human(k):
                 continue
             active.add(k)
             plan = self.memory.kept_plan(world, k, self.settings.game.comfort_brake)

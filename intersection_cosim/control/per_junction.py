@@ -35,7 +35,7 @@ def sub_world(world: World, keep: list[int]) -> World:
         a=world.a[idx], x=world.x[idx], y=world.y[idx], heading=world.heading[idx], kappa=world.kappa[idx],
         role=[world.role[k] for k in keep], lanes=[world.lanes[k] for k in keep] if world.lanes else [],
         exit_choices={vid: world.exit_choices[vid] for vid in ids if vid in world.exit_choices},
-        desired_speed=desired)
+        desired_speed=desired, human=world.human[idx] if world.human is not None else None)
 
 
 def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> Decisions:

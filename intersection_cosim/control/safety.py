@@ -31,6 +31,13 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + v_L^2 + 2 b (gap - margin)), with
   b = |a_min| and tau = the control period, so it can always stop behind a leader that brakes as
   hard as it can.
+* **Humans.** A human driver (``World.human``) will not yield: its plan is the prediction of
+  :func:`~intersection_cosim.models.prediction.human_accelerations` (its present acceleration
+  clipped to [0, a_max], never braking). Before it enters the junction it ranks ahead of every AV
+  not yet in (it will not yield to them; an AV that can still stay out of the crossing does, one
+  that cannot holds back as hard as it may), behind every vehicle already in the junction (SUMO's
+  own model makes a human wait for a vehicle in its crossing, and that AV drives out by the box
+  rule); inside, it ranks by its entry like an AV. The filter never caps a human.
 """
 
 from __future__ import annotations
@@ -46,6 +53,7 @@ from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.cost import time_to_conflict_point
+from intersection_cosim.models.prediction import human_accelerations
 from intersection_cosim.models.settings import ModelSettings
 
 
@@ -266,10 +274,17 @@ class SafetyFilter:
         if in_i >= out_j + st.safety_time_gap or in_j >= out_i + st.safety_time_gap:
             return  # the plans keep the crossing clear
         ti, tj = self._arrival(world, lat, ki, kj, in_i, in_j)
-        lower_first = sorted((_Crossing(self._rank(world, ki, ti), ki, lat.ri, lat.zone_i[0]),
-                              _Crossing(self._rank(world, kj, tj), kj, lat.rj, lat.zone_j[0])),
+        lower_first = sorted((_Crossing(self._rank(world, ki, ti, lat.zone_i[0]), ki, lat.ri, lat.zone_i[0]),
+                              _Crossing(self._rank(world, kj, tj, lat.zone_j[0]), kj, lat.rj, lat.zone_j[0])),
                              key=lambda c: (c.rank, c.k, c.row, c.enter), reverse=True)
         for n, c in enumerate(lower_first):
+            if world.is_human(c.k):  # a human is never made to yield by the filter (nothing commands it)
+                if n == 0:  # it ranks below an AV already in the junction: SUMO makes it wait for
+                    other = lower_first[1]  # the vehicle in the box, which drives out
+                    if float(world.s[other.k]) >= other.enter and float(world.v[other.k]) < st.clear_speed:
+                        clear.add(ids[other.k])
+                    return
+                continue
             a = self._stay_out(world, c.k, float(self.s_stop[relations.rows.pidx[c.row]]), c.enter)
             if a is not None:
                 cap[ids[c.k]] = min(cap.get(ids[c.k], math.inf), a)
@@ -283,6 +298,12 @@ class SafetyFilter:
     def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan]) -> Plan | None:
         """The plan the filter checks for vehicle k: this step's, or constant speed for one
         SUMO drives again (it has left the junction); None for one without a plan."""
+        if world.is_human(k):
+            v_cap = float(world.desired_speed[k]) if world.desired_speed is not None and \
+                math.isfinite(float(world.desired_speed[k])) else self.model.v_max
+            a = human_accelerations(float(world.v[k]), float(world.a[k]), self.problem.a_max, max(v_cap, float(world.v[k])),
+                                    self.problem.steps, self.problem.dt)
+            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.problem.dt)
         plan = plans.get(world.ids[k])
         if plan is None and world.role[k] == "outside":
             return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.problem.steps), self.problem.dt)
@@ -299,16 +320,31 @@ class SafetyFilter:
                     time_to_conflict_point(lat.zone_j[0] - float(world.s[kj]), float(world.v[kj]), floor))
         return in_i, in_j
 
-    def _rank(self, world: World, k: int, t_in: float) -> tuple:
+    def _rank(self, world: World, k: int, t_in: float, enter: float = math.inf) -> tuple:
         """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first.
         A vehicle that has left the junction (SUMO drives it, its rear may still be in the
         crossing) comes first: it cannot yield. One inside ranks by when it entered (first in,
         first out, like a queue: the queue holds even against a game's order, or waits could
-        close a cycle), ahead of every vehicle not yet in."""
-        if world.role[k] == "outside":
+        close a cycle), ahead of every vehicle not yet in. A human not yet in ranks ahead of every AV
+        not yet in (it will not yield to them), behind those inside (SUMO makes it wait for them),
+        unless it cannot stop before the crossing starting at ``enter`` [m] any more: then it ranks
+        first, like a vehicle SUMO drives again."""
+        if world.role[k] == "outside" or (world.is_human(k) and self.human_committed(world, k, enter)):
             return (-1, 0.0, world.ids[k])
         entered = self.entered.get(world.ids[k])
-        return (0, entered, world.ids[k]) if entered is not None else (1, t_in, world.ids[k])
+        if entered is not None:
+            return (0, entered, world.ids[k])
+        return (0.5, t_in, world.ids[k]) if world.is_human(k) else (1, t_in, world.ids[k])
+
+    def human_committed(self, world: World, k: int, enter: float) -> bool:
+        """Whether human k can no longer stop before arc length ``enter`` [m]: its braking distance
+        at the model's hardest braking |a_min| [m/s^2], after a control period at its present
+        speed (it reacts no faster than the controller), reaches past it. A standing human
+        (below ``clear_speed``) is not committed: it starts again only when SUMO lets it."""
+        v = float(world.v[k])  # [m/s]
+        if v < self.settings.clear_speed:  # standing (at its stop line, held by SUMO's right of way)
+            return False
+        return float(world.s[k]) + v * self.period + v * v / (2.0 * -self.problem.a_min) >= enter
 
     def _stay_out(self, world: World, k: int, s_stop: float, enter: float) -> float | None:
         """[m/s^2] the acceleration that keeps vehicle k out of a zone starting at ``enter`` [m]:

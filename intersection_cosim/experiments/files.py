@@ -10,6 +10,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from intersection_cosim.colors import HUMAN
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_INDEX, exit_arm
 from intersection_cosim.scenario.model import Scenario, VehicleSpec
@@ -47,6 +48,8 @@ def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow
     ET.SubElement(root, "vType", id="av", length=f"{m.vehicle_length:g}", width=f"{m.vehicle_width:g}",
                   minGap="2.0", accel="2.6", decel="4.5", emergencyDecel="9.0", sigma="0",
                   maxSpeed=f"{m.v_max:g}", speedFactor="1", tau="1.0")
+    if any(v.driver == "human" for v in scn.vehicles) or any(fv.get("driver") == "human" for fv in flow_vehicles):
+        _human_vtype(root, scn)
     entries = [_placed_entry(v) if v.route is not None else _paper_placed_entry(scn, v, paths)
                for v in scn.vehicles]
     entries += [_flow_entry(fv) if fv.get("route") is not None else _paper_flow_entry(scn, fv, paths)
@@ -58,6 +61,22 @@ def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow
     _write(root, path)
 
 
+def _human_vtype(root: ET.Element, scn: Scenario) -> None:
+    """vType ``human``: the [human] table's SUMO car-following model, the body of an ``av``, its own colour."""
+    m, h = scn.model, scn.human
+    attrs = dict(id="human", length=f"{m.vehicle_length:g}", width=f"{m.vehicle_width:g}", minGap=f"{h.min_gap:g}",
+                 accel=f"{h.accel:g}", decel=f"{h.decel:g}", emergencyDecel=f"{h.emergency_decel:g}",
+                 maxSpeed=f"{m.v_max:g}", speedFactor=f"{h.speed_factor:g}", tau=f"{h.tau:g}",
+                 carFollowModel=h.model, color=",".join(str(c) for c in HUMAN))
+    if scn.network.generated:  # it keeps the lane it was inserted on, as the AVs do (its path is known)
+        attrs.update(lcSpeedGain="0", lcKeepRight="0")
+    if h.model == "Krauss":
+        attrs["sigma"] = f"{h.sigma:g}"
+    else:
+        attrs["delta"] = f"{h.delta:g}"
+    ET.SubElement(root, "vType", attrs)
+
+
 RouteEntry = tuple[float, str, dict[str, str], str]  # depart [s], id, <vehicle> attributes, route edges
 
 
@@ -65,7 +84,7 @@ def _paper_placed_entry(scn: Scenario, v: VehicleSpec, paths: dict[str, Movement
     p = paths[v.path_id]
     approach_len = p.lane_starts[1]  # [m]
     pos = min(v.s0, approach_len - 0.1)  # [m]
-    attrs = {"id": v.id, "type": "av", "depart": f"{v.depart:g}",
+    attrs = {"id": v.id, "type": v.driver, "depart": f"{v.depart:g}",
              "departLane": str(LANE_INDEX[v.lane]), "departPos": f"{pos:.2f}",
              "departSpeed": f"{v.speed:g}", "arrivalPos": f"{scn.scenario.exit_distance:g}",
              "insertionChecks": "none"}
@@ -77,7 +96,7 @@ def _paper_placed_entry(scn: Scenario, v: VehicleSpec, paths: dict[str, Movement
 def _paper_flow_entry(scn: Scenario, fv: dict, paths: dict[str, MovementPath]) -> RouteEntry:
     approach_len = next(p for p in paths.values() if p.approach == fv["approach"]).lane_starts[1]  # [m]
     pos = 0.0 if fv["distance"] is None else max(0.0, approach_len - fv["distance"])  # [m]
-    attrs = {"id": fv["id"], "type": "av", "depart": f"{fv['depart']:.2f}",
+    attrs = {"id": fv["id"], "type": fv.get("driver", "av"), "depart": f"{fv['depart']:.2f}",
              "departLane": str(LANE_INDEX[fv["lane"]]), "departPos": f"{pos:.2f}",
              "departSpeed": "max", "arrivalPos": f"{scn.scenario.exit_distance:g}"}
     return fv["depart"], fv["id"], attrs, f"{fv['approach']}_in {exit_arm(fv['approach'], fv['movement'])}_out"
@@ -85,7 +104,7 @@ def _paper_flow_entry(scn: Scenario, fv: dict, paths: dict[str, MovementPath]) -
 
 def _placed_entry(v: VehicleSpec) -> RouteEntry:
     """A hand-placed vehicle on a ``[network] file`` net: where it is put, as given (no insertion checks)."""
-    attrs = {"id": v.id, "type": "av", "depart": f"{v.depart:g}", "departLane": str(v.depart_lane),
+    attrs = {"id": v.id, "type": v.driver, "depart": f"{v.depart:g}", "departLane": str(v.depart_lane),
              "departPos": f"{v.depart_pos:.2f}", "departSpeed": f"{v.speed:g}", "insertionChecks": "none"}
     return v.depart, v.id, attrs, " ".join(v.route)
 
@@ -94,7 +113,7 @@ def _flow_entry(fv: dict) -> RouteEntry:
     """A flow vehicle on a ``[network] file`` net: SUMO inserts it at the start of its route's first
     edge ("base") unless the flow gives a position."""
     pos = "base" if fv["depart_pos"] is None else f"{fv['depart_pos']:.2f}"
-    attrs = {"id": fv["id"], "type": "av", "depart": f"{fv['depart']:.2f}", "departLane": fv["depart_lane"],
+    attrs = {"id": fv["id"], "type": fv.get("driver", "av"), "depart": f"{fv['depart']:.2f}", "departLane": fv["depart_lane"],
              "departPos": pos, "departSpeed": fv["speed"]}
     return fv["depart"], fv["id"], attrs, " ".join(fv["route"])
 

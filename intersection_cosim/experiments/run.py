@@ -43,7 +43,7 @@ from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLU
                                                TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.sumo_outputs import read_collisions, read_ssm, read_tripinfo
-from intersection_cosim.scenario.load import default_exit_lane, generate_flow_vehicles
+from intersection_cosim.scenario.load import default_exit_lane, draw_drivers, generate_flow_vehicles
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
 from intersection_cosim.v2x import Channel
@@ -94,8 +94,8 @@ def resolved_settings(scn: Scenario) -> dict:
     """The settings a run of ``scn`` records in summary.json's ``settings`` (scenario, network,
     controller, model and the controller's [controller.*] tables after defaults and overrides):
     what makes two runs the same run."""
-    return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "controller": to_dict(scn.controller),
-            "model": to_dict(scn.model), "v2x": to_dict(scn.v2x),
+    return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "human": to_dict(scn.human),
+            "controller": to_dict(scn.controller), "model": to_dict(scn.model), "v2x": to_dict(scn.v2x),
             "controller_settings": to_dict(scn.controller_settings)
             if dataclasses.is_dataclass(scn.controller_settings) else None}
 
@@ -200,7 +200,7 @@ def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     net, movements = _movements(scn, controller)
     shutil.copyfile(net, folder / NET_FILE)
     rng = np.random.default_rng(s.seed)
-    flow_vehicles = generate_flow_vehicles(scn, rng)
+    flow_vehicles = draw_drivers(scn, generate_flow_vehicles(scn, rng))
     _check_attacked(scn, flow_vehicles)
     write_routes(folder / ROUTE_FILE, scn, movements.paths, flow_vehicles)
     write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn)
@@ -236,25 +236,30 @@ def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
 def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -> dict[str, dict]:
     """The keyword arguments of each vehicle's ``sim.sumo.VehicleInfo``, by id: the scenario's
     vehicles, then those of its flows. On a net file a vehicle has no intended path: the adapter
-    picks it from the vehicle's lane and route when it reaches a managed junction."""
+    picks it from the vehicle's lane and route when it reaches a managed junction. A human driver
+    is never controlled, whatever the controller."""
     specs: dict[str, dict] = {}
     for v in scn.vehicles:
         if v.route is not None:
             specs[v.id] = dict(approach="", lane="", movement="", kappa=v.kappa, intended_path=None,
-                               controlled=controlled, desired_speed=v.desired_speed, route=frozenset(v.route))
+                               controlled=controlled and v.driver == "av", desired_speed=v.desired_speed,
+                               route=frozenset(v.route), driver=v.driver)
             continue
         specs[v.id] = dict(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
-                           intended_path=v.path_id, controlled=controlled,
+                           intended_path=v.path_id, controlled=controlled and v.driver == "av", driver=v.driver,
                            exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
                            start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
     for fv in flow_vehicles:
+        driver = fv.get("driver", "av")
         if fv.get("route") is not None:
             specs[fv["id"]] = dict(approach="", lane="", movement="", kappa=fv["kappa"], intended_path=None,
-                                   controlled=controlled, route=frozenset(fv["route"]))
+                                   controlled=controlled and driver == "av", route=frozenset(fv["route"]),
+                                   driver=driver)
             continue
         pid = str(PathId(fv["approach"], fv["lane"], fv["movement"], default_exit_lane(fv["lane"], fv["movement"])))
         specs[fv["id"]] = dict(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
-                               kappa=fv["kappa"], intended_path=pid, controlled=controlled)
+                               kappa=fv["kappa"], intended_path=pid, controlled=controlled and driver == "av",
+                               driver=driver)
     return specs
 
 
@@ -279,7 +284,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
 
     s, controller = scn.scenario, inputs.controller
     specs = _vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
-    infos = {vid: VehicleInfo(**spec) for vid, spec in specs.items()}
+    infos = {vid: VehicleInfo(**spec, vtype=spec.get("driver", "av")) for vid, spec in specs.items()}
     period_steps = _period_steps(scn)
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
@@ -386,7 +391,8 @@ def _result_tables(scn: Scenario, folder: Path, inputs: _Inputs, simulated: _Sim
     vehicles = vehicle_table(_with_movements(simulated.infos, simulated.final_paths, inputs.paths), tripinfo,
                              simulated.exit_lanes, collisions)
     pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, scn.model.vehicle_width),
-                       scn.model, ssm, simulated.records.game_steps)
+                       scn.model, ssm, simulated.records.game_steps,
+                       {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()})
     return _Tables(traj, steps, tripinfo, collisions, vehicles, pairs)
 
 

@@ -65,3 +65,24 @@ def conflict_lookup(table, path_idx, pairs=None, *, conflicting_only: bool = Tru
         i, j, pi, pj, kind = i[keep], j[keep], pi[keep], pj[keep], kind[keep]
     return PairConflicts(i=i, j=j, kind=kind, s_cp_i=table.s_a[pi, pj], s_cp_j=table.s_b[pi, pj],
                          x=table.x[pi, pj], y=table.y[pi, pj])
+
+
+def human_accelerations(v0: float, a0: float, a_max: float, v_cap: float, steps: int, dt: float) -> np.ndarray:
+    """[m/s^2] (steps,) the accelerations a human driver is predicted to drive by over a horizon.
+
+    A human is a vehicle that will not yield to the controller: from its measured speed ``v0``
+    [m/s] and acceleration ``a0`` [m/s^2] it is predicted to keep its acceleration clipped to
+    [0, ``a_max``] (it is never assumed to brake, so it reaches every crossing as early as its
+    present motion allows), until it reaches ``v_cap`` [m/s], then at constant speed. A human
+    standing at its stop line (v0 = 0, a0 <= 0), which SUMO's right of way holds back, is
+    predicted to stay there: then an AV may pass; once it moves off the prediction moves with it.
+    ``dt`` [s] is the step of the horizon.
+    """
+    a = min(max(float(a0), 0.0), float(a_max))
+    out = np.zeros(int(steps))
+    v = float(v0)
+    for n in range(int(steps)):
+        step = min(a, max(float(v_cap) - v, 0.0) / dt)  # reach v_cap exactly, never pass it
+        out[n] = step
+        v += step * dt
+    return out

@@ -16,13 +16,15 @@ from intersection_cosim.network.conflicts import conflict_zone, point_zone, swep
 from intersection_cosim.network.paths import MovementPath
 
 VEHICLE_COLUMNS = ["vehicle", "approach", "movement", "kappa", "depart", "arrival", "travel_time",
-                   "time_loss", "exit_lane", "collided"]
-PAIR_COLUMNS = ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "pet_ssm", "game_steps"]
+                   "time_loss", "exit_lane", "collided", "driver", "vtype"]
+PAIR_COLUMNS = ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "pet_ssm", "game_steps",
+                "driver_a", "driver_b", "vtype_a", "vtype_b"]
 
 
 def vehicle_table(infos: dict, tripinfo: pd.DataFrame, exit_lanes: dict[str, str],
                   collisions: pd.DataFrame) -> pd.DataFrame:
-    """vehicles.csv: travel_time and time_loss are tripinfo's ``duration`` and ``timeLoss`` [s]."""
+    """vehicles.csv: travel_time and time_loss are tripinfo's ``duration`` and ``timeLoss`` [s];
+    ``driver`` is "av" or "human", ``vtype`` the vehicle's SUMO vType id."""
     trip = tripinfo.set_index("vehicle")
     collided = set(collisions["collider"]) | set(collisions["victim"])
     rows = []
@@ -36,6 +38,7 @@ def vehicle_table(infos: dict, tripinfo: pd.DataFrame, exit_lanes: dict[str, str
             "travel_time": t["duration"] if arrived else np.nan,
             "time_loss": t["time_loss"] if arrived else np.nan,
             "exit_lane": exit_lanes.get(vid, ""), "collided": vid in collided,
+            "driver": getattr(info, "driver", "av"), "vtype": getattr(info, "vtype", "av"),
         })
     return pd.DataFrame(rows, columns=VEHICLE_COLUMNS)
 
@@ -136,8 +139,12 @@ class _Zones:
 
 def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str, MovementPath],
                conflicts: dict, model: ModelSettings, ssm: pd.DataFrame,
-               game_steps: dict[tuple[str, str], int]) -> pd.DataFrame:
-    """pairs.csv: one row per pair of vehicles whose paths conflict and who met in the network."""
+               game_steps: dict[tuple[str, str], int],
+               kinds: dict[str, tuple[str, str]] | None = None) -> pd.DataFrame:
+    """pairs.csv: one row per pair of vehicles whose paths conflict and who met in the network;
+    ``kinds``: vehicle id -> (driver, vtype), the kinds of the two vehicles of a row (missing:
+    ("av", "av"))."""
+    kinds = kinds or {}
     by_vehicle = {vid: g.set_index("time")[["s", "speed"]] for vid, g in traj.groupby("vehicle", sort=True)}
     spans = {vid: (g.index.min(), g.index.max()) for vid, g in by_vehicle.items()}
     ssm_key = ssm.assign(a=ssm[["ego", "foe"]].min(axis=1), b=ssm[["ego", "foe"]].max(axis=1)) if len(ssm) else None
@@ -166,7 +173,9 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
                          "pet": post_encroachment_time(by_vehicle[va], by_vehicle[vb], zones.zone(conflict),
                                                        zones.zone(conflict.swapped())),
                          "min_ttc_ssm": ttc_ssm,
-                         "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0))})
+                         "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0)),
+                         "driver_a": kinds.get(va, ("av", "av"))[0], "driver_b": kinds.get(vb, ("av", "av"))[0],
+                         "vtype_a": kinds.get(va, ("av", "av"))[1], "vtype_b": kinds.get(vb, ("av", "av"))[1]})
     return pd.DataFrame(rows, columns=PAIR_COLUMNS)
 
 

@@ -23,8 +23,10 @@ from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, In
 from intersection_cosim.scenario.values import number
 from intersection_cosim.scenario.demand import check_generic_spacing, check_vehicle_keys, generic_flow, generic_vehicle
 from intersection_cosim.scenario.model import (
+    DRIVERS,
     ControllerSettings,
     FlowSpec,
+    HumanDriverSettings,
     KappaDistribution,
     NetworkSettings,
     Scenario,
@@ -35,12 +37,13 @@ from intersection_cosim.scenario.network import net_of, network_settings, route_
 from intersection_cosim.settings import from_table
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
-TOP_LEVEL = ("scenario", "controller", "model", "network", "vehicle", "flow", "v2x")
+TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vehicle", "flow", "v2x")
 CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
-                "kappa", "depart", "desired_speed")
+                "kappa", "depart", "desired_speed", "driver")
 FLOW_KEYS = ("id", "approach", "movement", "from", "to", "route", "rate", "kappa", "begin", "end", "lane", "speed",
-             "distance")
+             "distance", "av_share")
+DRIVER_STREAM = 16  # [-] second word of the seed of the drivers' draw (a stream apart from the arrivals')
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error
 
 
@@ -105,17 +108,29 @@ def _motion(src: str, field: str, table: dict) -> tuple[float, float, float, flo
     return speed, kappa, depart, desired
 
 
+def driver_of(src: str, field: str, table: dict) -> str:
+    """A vehicle table's ``driver``: "av" (default) or "human"."""
+    return _choice(src, f"{field}.driver", table.get("driver", "av"), DRIVERS)
+
+
+def av_share_of(src: str, field: str, table: dict) -> float:
+    """A flow table's ``av_share`` [-] in [0, 1] (default 1: every vehicle an AV)."""
+    return number(src, f"{field}.av_share", table.get("av_share", 1.0), minimum=0.0, maximum=1.0)
+
+
 def _any_vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath], net) -> VehicleSpec:
     """A ``[[vehicle]]`` table: on the generated net (``net`` None) or on a ``[network] file`` net."""
     if net is None:
-        return _vehicle(src, i, table, paths)
+        spec = _vehicle(src, i, table, paths)
+        return dataclasses.replace(spec, driver=driver_of(src, f"vehicle[{spec.id}]", table))
     vid = _vehicle_id(src, i, table)
     check_vehicle_keys(src, f"vehicle[{i}]", table)
     field = f"vehicle[{vid}]"
     for key in ("speed", "kappa"):
         if key not in table:
             raise InputError(src, f"{field}.{key}", None, "is required")
-    return generic_vehicle(src, field, vid, table, net, _motion(src, field, table))
+    spec = generic_vehicle(src, field, vid, table, net, _motion(src, field, table))
+    return dataclasses.replace(spec, driver=driver_of(src, field, table))
 
 
 def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> VehicleSpec:
@@ -227,7 +242,8 @@ def _any_flow(src: str, i: int, table: Any, net) -> FlowSpec:
     if "kappa" not in table:
         raise InputError(src, f"{field}.kappa", None, "is required")
     kappa = _kappa_distribution(src, f"{field}.kappa", table["kappa"])
-    return generic_flow(src, i, table, net, kappa, _flow_window(src, field, table))
+    spec = generic_flow(src, i, table, net, kappa, _flow_window(src, field, table))
+    return dataclasses.replace(spec, av_share=av_share_of(src, field, table))
 
 
 def _flow(src: str, i: int, table: Any) -> FlowSpec:
@@ -260,7 +276,8 @@ def _flow(src: str, i: int, table: Any) -> FlowSpec:
         kappa=_kappa_distribution(src, f"{field}.kappa", table["kappa"]),
         begin=begin, end=end, lane=lane,
         speed=number(src, f"{field}.speed", table.get("speed", 10.0), minimum=0.0),
-        distance=None if distance is None else number(src, f"{field}.distance", distance, minimum=0.0))
+        distance=None if distance is None else number(src, f"{field}.distance", distance, minimum=0.0),
+        av_share=av_share_of(src, field, table))
 
 
 def _check_spacing(src: str, vehicles: list[VehicleSpec], paths: dict[str, MovementPath],
@@ -315,12 +332,15 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path
         raise InputError(src, "controller.kind", ctrl.kind, f"must be one of {', '.join(registry.names())}")
     settings = registry.validate_tables(ctrl.kind, tables, src)
     model = from_table(ModelSettings, data.get("model"), src, "model")
+    if "human" in data and not isinstance(data["human"], dict):
+        raise InputError(src, "human", data["human"], "must be a table")
+    human = from_table(HumanDriverSettings, data.get("human"), src, "human")
     network = network_settings(src, data.get("network"), Path(src).parent if base is None else Path(base))
     vehicles, flows = _demand(src, data, scen, model, network)
     v2x = _v2x(src, data.get("v2x"), vehicles, flows, network)
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
                     controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network,
-                    v2x=v2x)
+                    v2x=v2x, human=human)
 
 
 def _v2x(src: str, table: Any, vehicles: list[VehicleSpec], flows: list[FlowSpec],
@@ -390,8 +410,9 @@ def _demand(src: str, data: dict[str, Any], scen: ScenarioSettings, model: Model
 def _check_route_file_ids(src: str, routes: str, ours: set[str]) -> None:
     """The user's route file must not redefine the run's vType ``av`` or reuse the scenario's ids."""
     types, demand = route_file_ids(routes)
-    if "av" in types:
-        raise InputError(src, "network.routes", routes, "defines vType 'av', the type of the scenario's own vehicles")
+    for own in ("av", "human"):
+        if own in types:
+            raise InputError(src, "network.routes", routes, f"defines vType {own!r}, a type of the scenario's own vehicles")
     for vid in sorted(demand & ours):
         raise InputError(src, "network.routes", routes, f"reuses the id {vid!r} of a [[vehicle]] or [[flow]]")
 
@@ -465,3 +486,16 @@ def generate_flow_vehicles(scn: Scenario, rng: np.random.Generator) -> list[dict
             t += rng.exponential(mean_headway)
     out.sort(key=lambda d: (d["depart"], d["id"]))
     return out
+
+
+def draw_drivers(scn: Scenario, flow_vehicles: list[dict]) -> list[dict]:
+    """``flow_vehicles`` with each one's ``driver``: "av" with its flow's ``av_share``, else "human".
+
+    One uniform draw per vehicle, in the order of ``flow_vehicles``, from a stream of its own
+    (seeded with the scenario's seed and :data:`DRIVER_STREAM`): the arrivals, lanes and kappas do
+    not depend on ``av_share``, and a vehicle that is human at one share is human at every lower
+    share (the humans of 0.9 are among those of 0.5).
+    """
+    share = {f.id: f.av_share for f in scn.flows}
+    u = np.random.default_rng((scn.scenario.seed, DRIVER_STREAM)).random(len(flow_vehicles))
+    return [{**fv, "driver": "av" if u[n] < share[fv["flow"]] else "human"} for n, fv in enumerate(flow_vehicles)]

@@ -47,6 +47,40 @@ class ControllerSettings:
         return positive(self, "period", "budget_ms")
 
 
+DRIVERS = ("av", "human")  # [-] who drives a vehicle: the controller (av) or SUMO's own model (human)
+HUMAN_MODELS = ("Krauss", "IDM")  # [-] SUMO car-following models a human may drive by
+
+
+@dataclass(frozen=True)
+class HumanDriverSettings:
+    """The ``[human]`` table: the SUMO vType ``human`` of every human-driven vehicle.
+
+    A human is driven by SUMO's own car-following model and right of way at every junction and is
+    never commanded by the controller. The defaults are SUMO's own defaults for a passenger car.
+    """
+
+    model: str = "Krauss"  # [-] SUMO carFollowModel: "Krauss" or "IDM"
+    accel: float = 2.6  # [m/s^2] maximum acceleration
+    decel: float = 4.5  # [m/s^2] comfortable deceleration
+    emergency_decel: float = 9.0  # [m/s^2] hardest braking SUMO allows it
+    sigma: float = 0.5  # [-] Krauss driver imperfection (0 = perfect; unused by IDM)
+    tau: float = 1.0  # [s] desired time headway
+    min_gap: float = 2.5  # [m] standstill gap to the leader
+    delta: float = 4.0  # [-] IDM acceleration exponent (unused by Krauss)
+    speed_factor: float = 1.0  # [-] its desired speed / the lane's speed limit (capped by the model's v_max)
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = positive(self, "accel", "decel", "emergency_decel", "tau", "delta", "speed_factor")
+        problems += non_negative(self, "min_gap")
+        if self.model not in HUMAN_MODELS:
+            problems.append(("model", f"must be one of {', '.join(HUMAN_MODELS)}"))
+        if not 0.0 <= self.sigma <= 1.0:
+            problems.append(("sigma", "must be in [0, 1]"))
+        if self.emergency_decel < self.decel:
+            problems.append(("emergency_decel", "must be >= decel"))
+        return problems
+
+
 PAPER_JUNCTION = "C"  # the generated net's centre node (network/build.py)
 SIGNALS = ("off", "on")  # [network] signals: traffic lights of managed junctions switched off / kept
 
@@ -97,6 +131,7 @@ class VehicleSpec:
     route: tuple[str, ...] | None = None  # [-] edge ids it drives, first = where it starts (None: paper forms)
     depart_lane: int | None = None  # [-] SUMO lane index on route[0] (None: paper forms)
     depart_pos: float | None = None  # [m] front bumper along that lane (None: paper forms)
+    driver: str = "av"  # [-] "av" (the controller drives it) or "human" (SUMO's model, never commanded)
 
 
 @dataclass(frozen=True)
@@ -134,6 +169,7 @@ class FlowSpec:
     depart_lane: str = "best"  # [-] SUMO departLane: "best", "random", "free", "first", "allowed" or an index
     depart_speed: str = "max"  # [m/s] SUMO departSpeed: a number, "max", "desired", "speedLimit" or "random"
     depart_pos: float | None = None  # [m] departPos along route[0]; None = "base" (its start)
+    av_share: float = 1.0  # [-] probability that an inserted vehicle is an AV (else a human), seeded
 
 
 @dataclass(frozen=True)
@@ -148,3 +184,4 @@ class Scenario:
     flows: tuple[FlowSpec, ...] = ()
     network: NetworkSettings = NetworkSettings()  # the [network] table (default: the generated paper net)
     v2x: V2XSettings = V2XSettings()  # the [v2x] table (default: perfect information, no channel)
+    human: HumanDriverSettings = HumanDriverSettings()  # the [human] table: how SUMO drives humans

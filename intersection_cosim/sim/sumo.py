@@ -90,6 +90,8 @@ class VehicleInfo:
     start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
     desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
     route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)
+    driver: str = "av"  # [-] "av" or "human" (a human is never controlled: SUMO's model drives it)
+    vtype: str = "av"  # [-] its SUMO vType id (of the run's route file, or the user's own)
 
 
 @dataclass
@@ -183,7 +185,7 @@ class SumoSimulation:
         role = self.movements.role(lane)
         if role == PASSING:
             pid = self._lane_to_paths[lane][0]
-            if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane:
+            if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane and info.driver != "human":
                 self._switch_exit_lane(vid, lane, pid, info)
                 return
             self.current_path[vid] = pid
@@ -231,7 +233,7 @@ class SumoSimulation:
         veh = self.api.vehicle
         kappa = veh.getParameter(vid, "kappa") or "0.5"  # a <param key="kappa"> of the vehicle, else moderate
         info = VehicleInfo("", "", "", float(kappa), None, self.adopt_controlled,
-                           route=frozenset(veh.getRoute(vid)))
+                           route=frozenset(veh.getRoute(vid)), vtype=veh.getTypeID(vid))
         self.vehicles[vid] = info
         return info
 
@@ -293,6 +295,7 @@ class SumoSimulation:
         n = len(ids)
         s = np.empty(n)
         arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
+        human = np.zeros(n, bool)
         path_ids, roles, lanes = [], [], []
         exit_choices: dict[str, tuple[str, ...]] = {}
         for i, vid in enumerate(ids):
@@ -309,19 +312,20 @@ class SumoSimulation:
             info = self.vehicles.get(vid)
             arr["kappa"][i] = info.kappa if info else 0.5
             arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
+            human[i] = info is not None and info.driver == "human"
             path_ids.append(pid)
             lanes.append(lane)
             # on its path's exit lane a vehicle has left its junction, though that lane may be
             # the next managed junction's approach (a corridor)
             role = OUTSIDE if lane == path.lanes[-1] else self.movements.role(lane)
-            if info is not None and role == READY and not info.exit_fixed:
+            if info is not None and role == READY and not info.exit_fixed and info.driver != "human":
                 exit_choices[vid] = self.movements.options(pid)
             else:
                 exit_choices[vid] = (path.exit_lane,)
             roles.append(role)
         return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
-                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"],
+                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human,
                      exit_free=self._exit_free(exit_choices, roles, ids))
 
     def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
@@ -342,10 +346,11 @@ class SumoSimulation:
     def command(self, decisions: Decisions) -> None:
         """Take a controller's decisions: an acceleration held until the next decision, and exit lanes."""
         for vid, accel in decisions.accel.items():
-            if vid in self.states:
+            info = self.vehicles.get(vid)
+            if vid in self.states and (info is None or info.driver != "human"):  # a human is never commanded
                 self.commands[vid] = float(accel)
         for vid, lane in decisions.exit_lane.items():
-            if vid in self.vehicles:
+            if vid in self.vehicles and self.vehicles[vid].driver != "human":
                 self.vehicles[vid].exit_lane = lane
         # a commanded vehicle on no managed path is in no controller's World: SUMO's again
         lost = [vid for vid in self.commands if vid not in self.current_path]

@@ -182,7 +182,6 @@ class Channel:
         return self._world(world, keep)
 
     def _world(self, world: World, keep: list[int]) -> World:
-        n = len(world.ids)
         ids = [world.ids[i] for i in keep]
         cols = {k: np.empty(len(ids)) for k in ("s", "v", "a", "x", "y", "heading")}
         path_ids, lanes, roles, exits = [], [], [], {}

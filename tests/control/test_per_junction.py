@@ -64,3 +64,23 @@ def test_each_junction_gets_its_own_movements_and_the_vehicles_on_its_paths(move
 def test_one_junction_s_decisions_pass_unchanged():
     d = Decisions(accel={"a": 1.0}, release=["b"])
     assert merge_decisions({"C": d}, {}) is d
+
+
+def test_each_junction_sees_its_own_vehicles_human_flags(movements):
+    """World.human is per vehicle: split with the vehicles, not handed whole to every junction."""
+    import dataclasses
+
+    import numpy as np
+
+    class HumanRecorder(_Recorder):
+        def decide(self, world, deadline):
+            self.seen.append([(vid, world.is_human(k)) for k, vid in enumerate(world.ids)])
+            return Decisions()
+
+    pj = PerJunction(HumanRecorder)
+    pj.setup(ControlContext(movements=movements, model=ModelSettings(), control_period=0.1, settings=None, etm=True))
+    world = make_world(movements.paths, 1.0, [("E", "gneE10_0>gneE11_0", 100.0, 5.0),
+                                              ("W", "gneE18_0>gneE19_0", 50.0, 5.0),
+                                              ("N", "gneE21_0>gneE22_0", 60.0, 5.0)])
+    pj.decide(dataclasses.replace(world, human=np.array([False, True, True])), deadline=1e12)
+    assert [p.seen for p in pj.parts.values()] == [[[("W", True)]], [[("E", False), ("N", True)]], [[]]]

@@ -87,3 +87,21 @@ def test_all_pairs():
     i, j = all_pairs(4)
     assert list(zip(i.tolist(), j.tolist())) == [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
     assert all_pairs(4)[0] is i
+
+
+# ---- human drivers: a vehicle that will not yield
+
+def test_a_human_is_never_predicted_to_brake_and_keeps_its_positive_acceleration_up_to_its_cap():
+    from intersection_cosim.models.prediction import human_accelerations
+
+    braking = human_accelerations(v0=8.0, a0=-3.0, a_max=2.5, v_cap=10.0, steps=30, dt=0.1)
+    assert np.all(braking == 0.0)  # measured braking is not extrapolated: constant speed
+    speeding = human_accelerations(v0=8.0, a0=1.0, a_max=2.5, v_cap=10.0, steps=30, dt=0.1)
+    v = 8.0 + np.cumsum(speeding) * 0.1
+    assert speeding[0] == pytest.approx(1.0)
+    assert v.max() == pytest.approx(10.0) and np.all(v <= 10.0 + 1e-12)  # reaches its cap in 2 s, stays there
+    assert np.all(speeding[21:] == 0.0)
+    hard = human_accelerations(v0=0.0, a0=5.0, a_max=2.5, v_cap=10.0, steps=5, dt=0.1)
+    assert np.all(hard == 2.5)  # clipped at a_max
+    standing = human_accelerations(v0=0.0, a0=0.0, a_max=2.5, v_cap=10.0, steps=10, dt=0.1)
+    assert np.all(standing == 0.0)  # held at its stop line: predicted to stay

@@ -64,6 +64,17 @@ CASES = [
      + GOOD_VEHICLE, "controller.safety.gap", "2.0"),
     ("a bad value in a sub-table", HEADER + '[controller]\nkind = "nash"\n[controller.safety]\nyield_order = "fifo"\n'
      + GOOD_VEHICLE, "controller.safety.yield_order", "'fifo'"),
+    ("av_share above 1", HEADER + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = 100\nkappa = 0.5\n'
+     'av_share = 1.5\n', "flow[0].av_share", "1.5"),
+    ("av_share below 0", HEADER + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = 100\nkappa = 0.5\n'
+     'av_share = -0.2\n', "flow[0].av_share", "-0.2"),
+    ("av_share not a number", HEADER + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = 100\nkappa = 0.5\n'
+     'av_share = "half"\n', "flow[0].av_share", "'half'"),
+    ("bad driver", HEADER + GOOD_VEHICLE.replace("kappa = 0.5", 'kappa = 0.5\ndriver = "robot"'),
+     "vehicle[V1].driver", "'robot'"),
+    ("unknown human model", HEADER + '[human]\nmodel = "Wiedemann"\n' + GOOD_VEHICLE, "human.model", "'Wiedemann'"),
+    ("unknown human key", HEADER + '[human]\nreaction = 1.0\n' + GOOD_VEHICLE, "human.reaction", "1.0"),
+    ("human sigma above 1", HEADER + '[human]\nsigma = 1.5\n' + GOOD_VEHICLE, "human.sigma", "1.5"),
     ("a table fcfs does not take", HEADER + '[controller]\nkind = "fcfs"\n[controller.policy]\nsolo_max_iter = 2\n'
      + GOOD_VEHICLE, "controller.policy.solo_max_iter", "only [controller.solver]"),
 ]
@@ -178,6 +189,8 @@ NETWORK_CASES = [
      "network.file", "'.': cannot be read"),
     ("unset variable", NET.replace("$SUMO_HOME", "$NO_SUCH_COSIM_VAR") + GOOD_FLOW, {},
      "network.file", "$NO_SUCH_COSIM_VAR is not set"),
+    ("av_share above 1 on a net file", NET + GOOD_FLOW + "av_share = 2\n", {}, "flow[0].av_share", "2"),
+    ("bad driver on a net file", NET + GOOD_EDGE_VEHICLE + 'driver = "robot"\n', {}, "vehicle[A].driver", "'robot'"),
     ("unknown network key", NET + "junktions = [\"0\"]\n" + GOOD_FLOW, {}, "network.junktions", "unknown key"),
     ("junction not in the net", NET.replace('["0"]', '["m9"]') + GOOD_FLOW, {},
      "network.junctions", "'m9': is not a junction of the net (nearest: 'm4', 'm3', 'm2')"),

@@ -1,0 +1,101 @@
+"""Human drivers in the game controller: observed, predicted, never players, never capped."""
+
+import dataclasses
+import time
+
+import numpy as np
+
+from intersection_cosim.control.base import ControlContext, Decisions
+from intersection_cosim.control.game import GameController
+from intersection_cosim.control.relations import step_relations
+from intersection_cosim.control.safety import SafetyFilter
+from intersection_cosim.control.settings import PolicySettings, SafetySettings
+from intersection_cosim.games.problem import Plan
+from intersection_cosim.games.settings import ProblemSettings
+from intersection_cosim.models.settings import ModelSettings
+from tests.control.conftest import make_world
+
+GS = SafetySettings()
+PROBLEM = ProblemSettings()
+MODEL = ModelSettings()
+RANGE = PolicySettings().lane_choice_range  # [m]
+LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
+STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
+
+
+def _crossing_world(paths, t, human: bool, d_left: float = 16.0, d_straight: float = 17.5):
+    """L (an AV) d_left [m] and S d_straight [m] before their crossing zones, both at 8 m/s;
+    S a human driver or an AV."""
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    s_l, s_s = t.zone_in[p, q] - d_left, t.zone_in[q, p] - d_straight
+    world = make_world(paths, 0.0, [("L", LEFT, s_l, 8.0), ("S", STRAIGHT, s_s, 8.0)])
+    return dataclasses.replace(world, human=np.array([False, human])), s_l, s_s
+
+
+def _filter(world, movements, t, plans, decisions):
+    active = {k for k in range(len(world)) if not world.is_human(k)}
+    rel = step_relations(world, active, movements, t, MODEL, True, {}, RANGE)
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    return f.apply(world, rel, plans, {}, decisions), f
+
+
+def test_an_av_yields_to_a_human_it_would_have_gone_before_if_it_were_an_av(paths, movements, conflict_table):
+    """L reaches its zone 0.19 s before S. Against an AV S, L ranks first and keeps its plan
+    (S yields); against a human S, which the filter cannot make yield, L brakes to stay out and
+    nothing is commanded to S."""
+    t = conflict_table
+    hold = np.zeros(PROBLEM.steps)
+    world, s_l, s_s = _crossing_world(paths, t, human=False)
+    plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
+    d = Decisions(accel={"L": 0.0, "S": 0.0})
+    _filter(world, movements, t, plans, d)
+    assert d.accel["L"] == 0.0 and d.accel["S"] < 0.0  # AV against AV: S yields
+
+    world, _, _ = _crossing_world(paths, t, human=True)
+    d = Decisions(accel={"L": 0.0})
+    held, f = _filter(world, movements, t, {"L": plans["L"]}, d)
+    assert d.accel["L"] < -1.0 and held == {"L"}  # it stays out of the crossing
+    assert "S" not in d.accel and f.filtered == 1
+
+
+def test_an_av_in_the_junction_drives_on_when_the_human_can_still_stop(paths, movements, conflict_table):
+    """L entered the junction first; a human S that can still stop before its crossing ranks behind
+    it (SUMO makes it wait): L is not held. The same human, moving so fast that it cannot stop any
+    more at |a_min|, ranks first: L is held."""
+    t = conflict_table
+    world, s_l, s_s = _crossing_world(paths, t, human=True, d_left=3.0, d_straight=30.0)
+    world = dataclasses.replace(world, role=["passing", "ready"], v=np.array([4.0, 8.0]))
+    hold = np.zeros(PROBLEM.steps)
+    plan_l = Plan.from_accelerations(s_l, 4.0, hold, PROBLEM.dt)
+    d = Decisions(accel={"L": 0.0})
+    active = {0}
+    rel = step_relations(world, active, movements, t, MODEL, True, {}, RANGE)
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f.record_entries(world)
+    assert not f.human_committed(world, 1, float(t.zone_in[t.index[STRAIGHT], t.index[LEFT]]))
+    f.apply(world, rel, {"L": plan_l}, {}, d)
+    assert d.accel["L"] == 0.0  # the human waits, by SUMO's rules
+
+    fast = dataclasses.replace(world, s=np.array([s_l, float(t.zone_in[t.index[STRAIGHT], t.index[LEFT]]) - 9.0]),
+                               v=np.array([4.0, 9.0]))
+    assert f.human_committed(fast, 1, float(t.zone_in[t.index[STRAIGHT], t.index[LEFT]]))  # 9 m < 0.9 + 10.1 m
+    d = Decisions(accel={"L": 0.0})
+    rel = step_relations(fast, active, movements, t, MODEL, True, {}, RANGE)
+    f.apply(fast, rel, {"L": plan_l}, {}, d)
+    assert d.accel["L"] < 0.0
+
+
+def test_the_controller_never_decides_for_a_human_nor_plays_a_game_with_it(controller, paths, movements,
+                                                                            conflict_table):
+    """A human next to an AV on crossing paths: the AV gets an acceleration, the human none, no
+    game has the human in it (the same pair of AVs plays one)."""
+    t = conflict_table
+    both_av, _, _ = _crossing_world(paths, t, human=False, d_left=14.0, d_straight=14.0)
+    d = controller.decide(both_av, time.perf_counter() + 10.0)
+    assert set(d.accel) == {"L", "S"} and d.games >= 1
+    controller = GameController("nash")  # a fresh one: the first has S among its vehicles
+    controller.setup(ControlContext(movements=movements, model=MODEL, control_period=0.1, settings=None, etm=True))
+    mixed, _, _ = _crossing_world(paths, t, human=True, d_left=14.0, d_straight=14.0)
+    d = controller.decide(mixed, time.perf_counter() + 10.0)
+    assert set(d.accel) == {"L"} and d.games == 0 and not any("S" in p for p in d.pairs)
+    assert "S" not in d.exit_lane and "S" not in d.release
