@@ -2,8 +2,8 @@
 
 One :class:`Axis` per entry of :data:`AXES`: its name (a sweep.csv / comparison.csv column and a
 part of run ids, e.g. ``-latency_0.10``), its command-line flag, the scenario field every run of
-the axis value overrides, the range a value must lie in and how it is applied. A new axis (for
-example ``--av-share`` over every [[flow]]'s ``av_share``) is one more entry here.
+the axis value overrides, the range a value must lie in and how it is applied. A new axis is one
+more entry here.
 
 Values are a comma-separated list, ``--latency 0,0.1,0.2``; each axis multiplies the grid.
 """
@@ -38,9 +38,17 @@ def _v2x_field(name: str) -> Callable[[Scenario, float], Scenario]:
     return apply
 
 
+def _every_flow(name: str) -> Callable[[Scenario, float], Scenario]:
+    def apply(scn: Scenario, value: float) -> Scenario:
+        return dataclasses.replace(scn, flows=tuple(dataclasses.replace(f, **{name: value}) for f in scn.flows))
+
+    return apply
+
+
 AXES: dict[str, Axis] = {axis.name: axis for axis in (
     Axis("latency", "--latency", "v2x.latency", "s", 0.0, math.inf, _v2x_field("latency")),
     Axis("loss", "--loss", "v2x.loss", "-", 0.0, 1.0, _v2x_field("loss")),
+    Axis("av_share", "--av-share", "flow.av_share", "-", 0.0, 1.0, _every_flow("av_share")),
 )}
 
 

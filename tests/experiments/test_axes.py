@@ -1,4 +1,4 @@
-"""Scenario axes of sweep and compare (--latency, --loss): parsing, the grid, run ids, bad values."""
+"""Scenario axes of sweep and compare (--latency, --loss, --av-share): parsing, the grid, run ids, bad values."""
 
 from __future__ import annotations
 
@@ -20,7 +20,27 @@ from sweep_helpers import CASE1A
 
 def test_every_axis_names_its_flag_and_field():
     assert {a.name: (a.flag, a.field) for a in AXES.values()} == {
-        "latency": ("--latency", "v2x.latency"), "loss": ("--loss", "v2x.loss")}
+        "latency": ("--latency", "v2x.latency"), "loss": ("--loss", "v2x.loss"),
+        "av_share": ("--av-share", "flow.av_share")}
+
+
+def test_av_share_axis_sets_every_flow_and_humans_appear_by_seed(tmp_path):
+    from pathlib import Path
+
+    from intersection_cosim.scenario.load import draw_drivers, generate_flow_vehicles
+
+    demand = Path(__file__).resolve().parents[2] / "scenarios" / "demand_balanced_medium.toml"
+    spec = make_spec(demand, None, "nash", "1", axes={"av_share": "0,0.5,1"})
+    jobs = sweep_jobs(spec, tmp_path, spec.scenario_text)
+    assert [j.run_id for j in jobs] == ["nash-seed1-av_share_0.00", "nash-seed1-av_share_0.50", "nash-seed1-av_share_1.00"]
+    humans = []
+    for job in jobs:
+        scn = job_scenario(Job.from_json(job.to_json()))
+        assert len(scn.flows) == 12 and {f.av_share for f in scn.flows} == {job.axes[0][1]}
+        import numpy as np
+        drawn = draw_drivers(scn, generate_flow_vehicles(scn, np.random.default_rng(scn.scenario.seed)))
+        humans.append(sum(v["driver"] == "human" for v in drawn) / len(drawn))
+    assert humans[0] == 1.0 and humans[2] == 0.0 and 0.4 < humans[1] < 0.6
 
 
 def test_axis_values_parse_in_order():
