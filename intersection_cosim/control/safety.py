@@ -37,7 +37,9 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   not yet in (it will not yield to them; an AV that can still stay out of the crossing does, one
   that cannot holds back as hard as it may), behind every vehicle already in the junction (SUMO's
   own model makes a human wait for a vehicle in its crossing, and that AV drives out by the box
-  rule); inside, it ranks by its entry like an AV. The filter never caps a human.
+  rule); inside, it ranks by its entry like an AV. The filter never caps a human. An AV not yet
+  in the junction waits at its stop line while a human of its crossing stands in that crossing or
+  brakes (``SafetySettings.human_brake``) to stop in it (:meth:`SafetyFilter._hold_for_human`).
 """
 
 from __future__ import annotations
@@ -183,6 +185,9 @@ class SafetyFilter:
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
         pairs, on = relations.pairs, np.array(chosen, bool)
         guarded = np.flatnonzero(on[pairs.ri] & on[pairs.rj]) if len(pairs) else np.zeros(0, np.intp)
+        if world.human is not None and bool(np.any(world.human)):
+            for m in guarded:
+                self._hold_for_human(world, relations, pairs.at(m), cap)
         for _pass in range(2):
             for vid in clear:
                 if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:
@@ -294,6 +299,35 @@ class SafetyFilter:
                 return
         k = lower_first[0].k
         cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self.problem.a_min, -float(world.v[k]) / self.period))
+
+    def _hold_for_human(self, world: World, relations: Relations, lat: Lateral, cap: dict[str, float]) -> None:
+        """Cap (into ``cap``) an AV not yet in the junction to wait at its stop line while the
+        human of its crossing ``lat`` stands in that crossing or brakes to stop in it (SUMO holds
+        it there, e.g. a left turn at its internal stop point for the opposing stream): once in,
+        the AV would stop short of the human inside the box, in other vehicles' crossings, and
+        SUMO holds those for the AV (a cycle). Nothing when the AV can no longer stop there."""
+        st, rows = self.settings, relations.rows
+        ki, kj = int(rows.vehicle[lat.ri]), int(rows.vehicle[lat.rj])
+        for h, k, zone_h, row, zone_k in ((ki, kj, lat.zone_i, lat.rj, lat.zone_j), (kj, ki, lat.zone_j, lat.ri, lat.zone_i)):
+            if not world.is_human(h) or world.is_human(k) or world.role[k] != "ready" or world.ids[k] in self.entered:
+                continue
+            v_h, a_h = float(world.v[h]), float(world.a[h])  # [m/s], [m/s^2]
+            if v_h < st.clear_speed:
+                stop_h = float(world.s[h])  # [m] where it stands
+            elif a_h <= -st.human_brake:
+                stop_h = float(world.s[h]) + v_h * v_h / (2.0 * -a_h)  # [m] where it will stop
+            else:
+                continue
+            if not zone_h[0] <= stop_h < zone_h[1]:
+                continue
+            s_k, v_k = float(world.s[k]), float(world.v[k])
+            if s_k >= zone_k[0]:
+                continue
+            a = stopping_acceleration(s_k, v_k, float(self.s_stop[rows.pidx[row]]) - st.safety_margin)
+            if a is None:  # at (or just past) its stop line: stay there
+                a = max(self.problem.a_min, -v_k / self.period) if v_k < st.clear_speed else self.problem.a_min - 1.0
+            if a >= self.problem.a_min:
+                cap[world.ids[k]] = min(cap.get(world.ids[k], math.inf), a)
 
     def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan]) -> Plan | None:
         """The plan the filter checks for vehicle k: this step's, or constant speed for one

@@ -99,3 +99,26 @@ def test_the_controller_never_decides_for_a_human_nor_plays_a_game_with_it(contr
     d = controller.decide(mixed, time.perf_counter() + 10.0)
     assert set(d.accel) == {"L"} and d.games == 0 and not any("S" in p for p in d.pairs)
     assert "S" not in d.exit_lane and "S" not in d.release
+
+
+def test_an_av_waits_at_its_stop_line_while_a_human_brakes_to_stop_in_its_crossing(paths, movements, conflict_table):
+    """S (a human, 8 m/s, 5 m before its zone) is predicted never to brake, so it clears the crossing
+    before L (an AV 18 m before its zone) arrives: L keeps its plan. The same S braking at 4.5 m/s^2
+    will stop inside the crossing (SUMO holds it there): L is held to stop at its stop line, less the
+    margin, instead of entering and stopping short of S inside the junction."""
+    t = conflict_table
+    world, s_l, s_s = _crossing_world(paths, t, human=True, d_left=18.0, d_straight=5.0)
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    assert s_s + 8.0 ** 2 / (2 * 4.5) < t.zone_out[q, p]  # braking, it stops in the crossing
+    plans = {"L": Plan.from_accelerations(s_l, 8.0, np.zeros(PROBLEM.steps), PROBLEM.dt)}
+    d = Decisions(accel={"L": 0.0})
+    held, _ = _filter(world, movements, t, plans, d)
+    assert d.accel["L"] == 0.0 and held == frozenset()
+
+    braking = dataclasses.replace(world, a=np.array([0.0, -4.5]))
+    d = Decisions(accel={"L": 0.0})
+    held, _ = _filter(braking, movements, t, plans, d)
+    stop_line = float(t.s_stop[p]) - GS.safety_margin  # [m]
+    assert stop_line > s_l
+    assert np.isclose(d.accel["L"], -8.0 ** 2 / (2 * (stop_line - s_l))) and held == {"L"}
+    assert d.accel["L"] > PROBLEM.a_min
