@@ -96,3 +96,58 @@ def test_a_follower_is_capped_at_krauss_safe_speed(paths, movements, conflict_ta
     v_safe = -b * tau + np.sqrt((b * tau) ** 2 + 2 * b * gap)
     assert d.accel["follow"] == pytest.approx(max((v_safe - 8.0) / tau, PROBLEM.a_min))
     assert d.accel["lead"] == 0.0 and held == frozenset()  # behind a leader is not held at a crossing
+
+
+def _chord_heading(path, s, length):
+    """[rad] SUMO's heading of a vehicle with its front at ``s`` [m]: rear point to front point."""
+    d = path.point_at(s) - path.point_at(s - length)
+    return float(np.arctan2(d[1], d[0]))
+
+
+def _in_the_way(paths, turner, s_turner, crosser, fronts):
+    """Whether a body on ``turner`` with its front at ``s_turner`` [m] overlaps one on ``crosser``
+    at any of ``fronts`` [m], both headed as SUMO heads them (results.metrics.body_overlaps)."""
+    import pandas as pd
+
+    from intersection_cosim.results.metrics import body_overlaps
+
+    length, width = MODEL.vehicle_length, MODEL.vehicle_width
+    xy = paths[crosser].point_at(fronts)
+    xt, yt = paths[turner].point_at(s_turner)
+    n = len(fronts)
+    traj = pd.DataFrame({"time": np.tile(np.arange(n, dtype=float), 2), "vehicle": ["S"] * n + ["L"] * n,
+                         "x": np.concatenate([xy[:, 0], np.full(n, xt)]), "y": np.concatenate([xy[:, 1], np.full(n, yt)]),
+                         "heading": [_chord_heading(paths[crosser], s, length) for s in fronts]
+                         + [_chord_heading(paths[turner], s_turner, length)] * n})
+    return bool(body_overlaps(traj, length, width))
+
+
+def test_a_turner_standing_with_its_rear_in_a_crossing_still_holds_the_other(paths, movements, conflict_table):
+    """Issue 17 (a collision on the grid): the left turner L entered first and stands where
+    SUMO's body (headed along the chord from its rear on the centre line to its front) is just
+    still in the way of bodies on the straight path, 0.25 m before it clears. S, approaching
+    slowly, must wait at its stop line. With zones from bodies headed along the tangent at the
+    front (whose rear swings ~0.8 m further out on a turn), L's zone had ended there: the pair was
+    no longer guarded and S drove into L's rear."""
+    t = conflict_table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    length = MODEL.vehicle_length
+    fronts = np.arange(t.s_stop[q], t.s_exit[q] + length, 0.25)  # [m] S's fronts through the junction
+    s_l = float(t.s_a[p, q])  # [m] L's front at the crossing of the centre lines: in the way
+    assert _in_the_way(paths, LEFT, s_l, STRAIGHT, fronts)
+    while _in_the_way(paths, LEFT, s_l + 0.25, STRAIGHT, fronts):
+        s_l += 0.25  # the last front (to 0.25 m) at which L is in S's way
+    assert s_l > t.s_a[p, q] + length  # several metres past the crossing point
+    s_s = float(t.s_stop[q]) - 3.0  # [m]
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    world = make_world(paths, 5.0, [("L", LEFT, s_l, 0.0), ("S", STRAIGHT, s_s, 2.0)])
+    world.role = ["passing", "ready"]
+    f.record_entries(world)
+    plans = {"L": Plan.from_accelerations(s_l, 0.0, np.zeros(PROBLEM.steps), PROBLEM.dt),
+             "S": Plan.from_accelerations(s_s, 2.0, np.full(PROBLEM.steps, 2.5), PROBLEM.dt)}
+    d = Decisions(accel={"L": 0.0, "S": 2.5})
+    held = f.apply(world, _relations(world, movements, t), plans, {}, d)
+    to_line = float(t.s_stop[q]) - GS.safety_margin - s_s  # [m] 2 m
+    assert d.accel["S"] == pytest.approx(-2.0 ** 2 / (2 * to_line), rel=1e-9)  # -1 m/s^2, at its line
+    assert "S" in held
+    assert d.accel["L"] == pytest.approx(GS.clear_accel)  # and L, standing in the crossing, drives out

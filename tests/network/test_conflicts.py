@@ -195,11 +195,14 @@ def test_wider_vehicles_make_more_conflicts(paths):
 
 
 def _bodies(path, s_front):
-    """trajectories.csv-like rows (x, y, heading at the front) for fronts ``s_front`` on ``path``."""
+    """trajectories.csv-like rows (x, y, heading) for fronts ``s_front`` on ``path``, headed as
+    SUMO heads a vehicle: from its rear point on the centre line 4.5 m back to its front."""
     import pandas as pd
 
-    xy = path.point_at(np.asarray(s_front, float))
-    return pd.DataFrame({"x": xy[:, 0], "y": xy[:, 1], "heading": path.heading_at(np.asarray(s_front, float))})
+    s = np.asarray(s_front, float)
+    xy = path.point_at(s)
+    d = xy - path.point_at(s - 4.5)
+    return pd.DataFrame({"x": xy[:, 0], "y": xy[:, 1], "heading": np.arctan2(d[:, 1], d[:, 0])})
 
 
 @pytest.mark.parametrize("a, b", [
