@@ -7,6 +7,7 @@ the simulator.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Mapping, Protocol
 
@@ -39,6 +40,26 @@ class World:
     #   READY vehicle may take: ([m] free length from the lane's start to the rear of its last
     #   vehicle, [m/s] that vehicle's speed); (lane length, inf) if empty; a lane not in it is free
     human: np.ndarray | None = None  # [-] bool per vehicle: a human driver (SUMO drives it; never a player); None: none
+
+    def subset(self, keep: list[int]) -> "World":
+        """The World of the vehicles at indices ``keep`` (in that order): every per-vehicle array
+        and list indexed, every dict keyed by vehicle id filtered, anything else (``time``, a dict
+        keyed by lane such as ``exit_free``) kept whole. Generic over the fields, so a field added
+        to World is split with the vehicles without its users knowing it."""
+        everyone = set(self.ids)
+        n, ids = len(self.ids), {self.ids[k] for k in keep}
+        idx = np.asarray(keep, dtype=np.intp)
+
+        def part(value):
+            if isinstance(value, np.ndarray) and value.ndim >= 1 and len(value) == n:
+                return value[idx]
+            if isinstance(value, list) and len(value) == n:
+                return [value[k] for k in keep]
+            if isinstance(value, dict) and value.keys() <= everyone:
+                return {vid: v for vid, v in value.items() if vid in ids}
+            return value
+
+        return dataclasses.replace(self, **{f.name: part(getattr(self, f.name)) for f in dataclasses.fields(self)})
 
     def is_human(self, k: int) -> bool:
         """Whether vehicle k is a human driver (observed and predicted, never commanded)."""

@@ -17,25 +17,13 @@ from __future__ import annotations
 import dataclasses
 from typing import Callable
 
-import numpy as np
-
 from intersection_cosim.control.base import ControlContext, Controller, Decisions, Diagnostics, World
 from intersection_cosim.network.by_junction import junction_movements, path_junction
 
 
 def sub_world(world: World, keep: list[int]) -> World:
     """The World of the vehicles at indices ``keep`` (in their order); ``world`` itself if all."""
-    if len(keep) == len(world):
-        return world
-    idx = np.asarray(keep, dtype=np.intp)
-    ids = [world.ids[k] for k in keep]
-    desired = world.desired_speed[idx] if world.desired_speed is not None else None
-    return dataclasses.replace(
-        world, ids=ids, path_ids=[world.path_ids[k] for k in keep], s=world.s[idx], v=world.v[idx],
-        a=world.a[idx], x=world.x[idx], y=world.y[idx], heading=world.heading[idx], kappa=world.kappa[idx],
-        role=[world.role[k] for k in keep], lanes=[world.lanes[k] for k in keep] if world.lanes else [],
-        exit_choices={vid: world.exit_choices[vid] for vid in ids if vid in world.exit_choices},
-        desired_speed=desired, human=world.human[idx] if world.human is not None else None)
+    return world if len(keep) == len(world) else world.subset(keep)
 
 
 def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> Decisions:

@@ -199,11 +199,8 @@ class Channel:
             lanes.append(lane)
             roles.append(role)
             exits[vid] = msg.exit_choices if role == READY and msg.exit_choices else (path.exit_lane,)
-        fields = {f.name: getattr(world, f.name) for f in dataclasses.fields(world)}
-        known, everyone = set(ids), set(world.ids)
-        carried = {name: _subset(value, keep, known, everyone) for name, value in fields.items()}
-        return dataclasses.replace(world, **{**carried, **cols, "ids": ids, "path_ids": path_ids, "lanes": lanes,
-                                             "role": roles, "exit_choices": exits})
+        return dataclasses.replace(world.subset(keep), **cols, ids=ids, path_ids=path_ids, lanes=lanes,
+                                   role=roles, exit_choices=exits)
 
     # --- down: commands --------------------------------------------------------------------
     def send(self, decisions: Decisions, time: float) -> None:
@@ -233,16 +230,3 @@ class Channel:
                 out.release.append(c.vehicle)
         return out
 
-
-def _subset(value, keep: list[int], ids: set[str], everyone: set[str]):
-    """A World field restricted to the vehicles ``keep`` (indices) / ``ids``: per-vehicle arrays
-    and lists are indexed, dicts keyed by vehicle id filtered, anything else (a dict keyed by
-    lane, such as ``exit_free``, which the vehicles' messages do not carry) kept as it is."""
-    n = len(everyone)
-    if isinstance(value, np.ndarray) and value.ndim >= 1 and len(value) == n:
-        return value[keep]
-    if isinstance(value, list) and len(value) == n:
-        return [value[i] for i in keep]
-    if isinstance(value, dict) and value.keys() <= everyone:
-        return {k: v for k, v in value.items() if k in ids}
-    return value
