@@ -42,6 +42,11 @@ same approach lane (a *following* pair) share a "stop-line point": from the fron
    (``krauss_safe_speed``, control/safety.py) behind the vehicle's leader: the nearest vehicle
    ahead on a shared stretch (same approach lane, or the same exit lane after a merge point).
 4. Vehicles that have left the conflict zone (role ``outside``) are released to SUMO.
+5. Don't block the box (``exit_room``, as the game controller): an approaching vehicle that is
+   not committed and whose exit lane will lack room for it when it reaches its stop line
+   (:func:`~intersection_cosim.control.exit_room.exit_room_caps`) gets no reservation this period
+   and brakes to stop ``follow_gap`` before its line; the points it would have reserved stay free
+   for the others.
 
 The controller also fixes each vehicle's exit lane to its path's (``Decisions.exit_lane``) so that
 the points it reserved are the ones it drives through.
@@ -55,6 +60,7 @@ from typing import NamedTuple
 import numpy as np
 
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
+from intersection_cosim.control.exit_room import exit_room_caps
 from intersection_cosim.control.reservations import FcfsSettings, Grant, Reservations, time_to_cover
 from intersection_cosim.control.safety import krauss_safe_speed, stopping_acceleration
 from intersection_cosim.network.conflicts import (
@@ -160,8 +166,10 @@ class FcfsController:
         arrivals = self._arrivals(world)
         paths_present = set(world.path_ids)
         order, busy = self._keep_committed(world, arrivals, paths_present)  # rule 1
+        held = self._exit_holds(world, order)  # rule 5
+        order = [k for k in order if world.ids[k] not in held]
         self._grant_in_order(world, arrivals, order, paths_present, busy)  # rule 2
-        accel = self._commands(world, arrivals, active)  # rule 3
+        accel = self._commands(world, arrivals, active, held)  # rule 3
         self._leader_caps(world, active, accel)
         return self._decisions(world, active, release, accel, arrivals.v)
 
@@ -265,12 +273,28 @@ class FcfsController:
         cand_v[0] = arr.v_e[k]
         return cand_t, cand_v
 
-    def _commands(self, world: World, arr: _Arrivals, active: list[int]) -> np.ndarray:
-        """Rule 3: [m/s^2] each active vehicle's acceleration towards its grant (0 for the others),
-        before the leader caps."""
+    def _exit_holds(self, world: World, order: list[int]) -> dict[str, float]:
+        """Rule 5: [m/s^2] the stopping acceleration of each uncommitted vehicle of ``order``
+        (indices) whose exit lane lacks room; their grants are dropped."""
+        fs = self.fs
+        if not fs.exit_room:
+            return {}
+        caps = exit_room_caps(world, self.ctx.movements, {}, self.model.vehicle_length, fs.exit_min_gap,
+                              fs.follow_gap, fs.comfort_accel, -fs.max_brake, self.ctx.control_period,
+                              fs.standing_speed)
+        uncommitted = {world.ids[k] for k in order}
+        held = {vid: a for vid, a in caps.items() if vid in uncommitted}
+        for vid in held:
+            self.grants.pop(vid, None)
+        return held
+
+    def _commands(self, world: World, arr: _Arrivals, active: list[int], held: dict[str, float]) -> np.ndarray:
+        """Rule 3: [m/s^2] each active vehicle's acceleration towards its grant, or its hold
+        (rule 5), before the leader caps."""
         accel = np.zeros(len(world))
         for k in active:
-            accel[k] = self._grant_accel(world, arr, k, self.grants[world.ids[k]])
+            vid = world.ids[k]
+            accel[k] = held[vid] if vid in held else self._grant_accel(world, arr, k, self.grants[vid])
         return accel
 
     def _grant_accel(self, world: World, arr: _Arrivals, k: int, grant: Grant) -> float:

@@ -24,6 +24,10 @@ class FcfsSettings:
     follow_gap: float = 1.0  # [m] stop-line headway distance beyond L; stop this far before the line
     slot_step: float = 0.1  # [s] resolution of the arrival times tried
     max_delay: float = 120.0  # [s] latest arrival tried after the earliest one
+    exit_room: bool = True  # [-] don't block the box: an uncommitted vehicle whose exit lane lacks
+    #                         room is held at its stop line without a reservation (control/exit_room.py)
+    exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
+    standing_speed: float = 1.0  # [m/s] a vehicle inside the junction slower than this claims exit room
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "comfort_accel", "max_brake", "slot_step", "max_delay")
@@ -31,6 +35,9 @@ class FcfsSettings:
             problems.append(("buffer", "must be >= 0"))
         if not self.follow_gap >= 0:
             problems.append(("follow_gap", "must be >= 0"))
+        for name in ("exit_min_gap", "standing_speed"):
+            if not getattr(self, name) >= 0:
+                problems.append((name, "must be >= 0"))
         return problems
 
 

@@ -6,7 +6,11 @@ import os
 import numpy as np
 import pytest
 
+from intersection_cosim.control.base import ControlContext
 from intersection_cosim.control.exit_room import exit_room_caps
+from intersection_cosim.control.fcfs import FcfsController
+from intersection_cosim.control.reservations import FcfsSettings
+from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.junction_net import load_movements
 
 from tests.control.conftest import make_world
@@ -52,3 +56,27 @@ def test_a_vehicle_standing_in_the_junction_claims_room_on_the_same_exit_lane(mo
     assert "E" in exit_room_caps(world, movements, {}, **KW)  # 10 m free, 7.5 claimed by N
     moving = dataclasses.replace(world, v=np.array([4.0, 3.0]))
     assert exit_room_caps(moving, movements, {}, **KW) == {}  # N drives on: it claims nothing yet
+
+
+def _fcfs(movements, exit_room: bool = True):
+    ctrl = FcfsController()
+    ctrl.setup(ControlContext(movements=movements, model=ModelSettings(), control_period=0.1,
+                              settings=FcfsSettings(exit_room=exit_room), etm=True))
+    return ctrl
+
+
+def test_fcfs_holds_a_vehicle_without_exit_room_and_reserves_nothing_for_it(movements):
+    # 4 m/s, 4 m before the line, exit lane full and standing: fcfs's rule 5 brakes it to stop
+    # follow_gap = 1 m before the line (-16 / 6 m/s^2) and grants it no slot
+    ctrl = _fcfs(movements)
+    decisions = ctrl.decide(_world(movements, (3.0, 0.0)), deadline=float("inf"))
+    assert decisions.accel["E"] == pytest.approx(-16.0 / 6.0)
+    assert "E" not in ctrl.grants
+    # room on the lane: it is granted its earliest arrival and accelerates
+    ctrl = _fcfs(movements)
+    decisions = ctrl.decide(_world(movements, (50.0, 0.0)), deadline=float("inf"))
+    assert "E" in ctrl.grants and decisions.accel["E"] > 0.0
+    # the rule off: it is granted and drives on into the box
+    ctrl = _fcfs(movements, exit_room=False)
+    decisions = ctrl.decide(_world(movements, (3.0, 0.0)), deadline=float("inf"))
+    assert "E" in ctrl.grants and decisions.accel["E"] > 0.0
