@@ -121,7 +121,7 @@ class GameController:
         self.table = movement_conflict_table(context.movements, context.model.vehicle_width,
                                              context.model.vehicle_length)
         shift = max(1, int(round(context.control_period / game.dt)))
-        self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt)
+        self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt, game.a_max, context.model.v_max)
         lane_costs = LaneChangeCosts(context.movements, context.model)
         self.solver = GameSolver(EQUILIBRIA[self.equilibrium], self.equilibrium, self.settings.games, self.model,
                                  lane_costs, context.movements)

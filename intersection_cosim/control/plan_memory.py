@@ -13,8 +13,11 @@ from typing import Iterable, Union
 
 import numpy as np
 
+import math
+
 from intersection_cosim.control.base import World
 from intersection_cosim.games.problem import Plan, shift_plan
+from intersection_cosim.models.prediction import human_accelerations
 
 
 @dataclass(frozen=True)
@@ -44,15 +47,29 @@ class GameKey:
 WarmKey = Union[SoloKey, GameKey]
 
 
+def human_forecast(world: World, k: int, a_max: float, v_max: float, steps: int, dt: float) -> Plan:
+    """The plan human driver k is predicted to drive (models.prediction.human_accelerations: its
+    acceleration clipped to [0, ``a_max``] [m/s^2], up to its desired speed, else ``v_max``
+    [m/s]) over ``steps`` steps of ``dt`` [s], from its measured state."""
+    v_cap = v_max
+    if world.desired_speed is not None and math.isfinite(float(world.desired_speed[k])):
+        v_cap = float(world.desired_speed[k])
+    v0 = float(world.v[k])
+    a = human_accelerations(v0, float(world.a[k]), a_max, max(v_cap, v0), steps, dt)
+    return Plan.from_accelerations(float(world.s[k]), v0, a, dt)
+
+
 class PlanMemory:
     """Applied plans and exit lanes per vehicle, and warm starts per problem.
 
     ``shift``: solver steps per control period; ``period`` [s] the control period;
-    ``steps`` the horizon N; ``dt`` [s] the solver step.
+    ``steps`` the horizon N; ``dt`` [s] the solver step; ``a_max`` [m/s^2] and ``v_max`` [m/s]
+    bound the forecast of a human driver (:meth:`human_plan`).
     """
 
-    def __init__(self, shift: int, period: float, steps: int, dt: float):
+    def __init__(self, shift: int, period: float, steps: int, dt: float, a_max: float, v_max: float):
         self.shift, self.period, self.steps, self.dt = shift, period, steps, dt
+        self.a_max, self.v_max = a_max, v_max
         self.plans: dict[str, Plan] = {}  # plan applied at the last step, per vehicle
         self.options: dict[str, str] = {}  # exit lane chosen at the last step, per vehicle
         self._warm: dict[WarmKey, tuple[float, tuple[Plan, ...]]] = {}  # key -> ([s] solved at, plans)
@@ -84,6 +101,10 @@ class PlanMemory:
     def coasting_plan(self, world: World, k: int) -> Plan:
         """Vehicle k at constant speed (one SUMO drives again, having left the junction)."""
         return self.from_state(world, k, np.zeros(self.steps))
+
+    def human_plan(self, world: World, k: int) -> Plan:
+        """Human driver k's forecast (:func:`human_forecast`)."""
+        return human_forecast(world, k, self.a_max, self.v_max, self.steps, self.dt)
 
     def kept_plan(self, world: World, k: int, comfort_brake: float) -> Plan:
         """Vehicle k's last applied plan shifted by one period and started from its measured

@@ -1,5 +1,6 @@
-"""A controlled vehicle as a player of a game or a solo problem: its state, kappa, desired speed
-and the predicted trajectory of its leader (J_log, paper Eqs. 15-18).
+"""A controlled vehicle as a player of a game or a solo problem: its state, kappa, desired speed,
+the predicted trajectory of its leader (J_log, paper Eqs. 15-18) and those of the human drivers it
+crosses in a triggered pair (J_lat, Eqs. 19-22: non-players, their forecasts fixed).
 
 The leader's trajectory is its previous plan shifted by one period when it is controlled,
 constant speed otherwise. The leader does not care about its follower (its cost has no term for
@@ -51,4 +52,15 @@ def player(world: World, k: int, option: str, relations: Relations, memory: Plan
         s_l, v_l = leader_trajectory(world, leader, memory)
         exo = (s_l + leader.offset, v_l)
     return Player(s0=float(world.s[k]), v0=float(world.v[k]), kappa=float(world.kappa[k]),
-                  v_max=desired_speed(world, k), name=world.ids[k], leader=exo)
+                  v_max=desired_speed(world, k), name=world.ids[k], leader=exo,
+                  crossers=human_crossers(world, k, option, relations, memory))
+
+
+def human_crossers(world: World, k: int, option: str, relations: Relations, memory: PlanMemory) -> tuple:
+    """Player.crossers of vehicle k taking exit lane ``option``: the human drivers it crosses or
+    merges with in a triggered pair, each by its forecast (PlanMemory.human_plan)."""
+    out = []
+    for h, s_own, s_h in relations.human_crossings.get(relations.row_of[(k, option)], ()):
+        plan = memory.human_plan(world, h)
+        out.append((s_own, s_h, plan.positions[1:], plan.speeds[1:]))
+    return tuple(out)

@@ -76,6 +76,10 @@ class LateralPairs:
     play: np.ndarray  # (L,) bool, as Lateral.play
     zone_i: np.ndarray  # (L, 2) [m] as Lateral.zone_i
     zone_j: np.ndarray  # (L, 2) [m] as Lateral.zone_j
+    human: np.ndarray | None = None  # (L,) bool: a controlled vehicle and a human driver, neither
+    #                                  past the point by conflict_clearance, triggered (or the ETM off):
+    #                                  the human's predicted trajectory enters the other's J_lat
+    human_j: np.ndarray | None = None  # (L,) bool: the human is row rj's vehicle (else ri's)
 
     def __len__(self) -> int:
         return len(self.ri)
@@ -96,6 +100,20 @@ class Relations:
     leaders: Mapping[int, Leader]  # row -> its nearest leader
     pairs: LateralPairs  # the lateral pairs as columns
     row_of: Mapping[tuple[int, str], int]  # (World index, exit lane) -> row
+
+    @functools.cached_property
+    def human_crossings(self) -> Mapping[int, tuple[tuple[int, float, float], ...]]:
+        """Row -> its crossings with human drivers that enter its J_lat as fixed trajectories:
+        (the human's World index, the point on the row's path [m], on the human's path [m]) for
+        each lateral pair marked ``human`` (built on first use)."""
+        p, vehicle = self.pairs, self.rows.vehicle
+        out: dict[int, list] = {}
+        for m in np.flatnonzero(p.human) if p.human is not None else ():
+            ri, rj, s_i, s_j = int(p.ri[m]), int(p.rj[m]), float(p.s_i[m]), float(p.s_j[m])
+            own, other = (ri, rj) if p.human_j[m] else (rj, ri)
+            s_own, s_other = (s_i, s_j) if p.human_j[m] else (s_j, s_i)
+            out.setdefault(own, []).append((int(vehicle[other]), s_own, s_other))
+        return {r: tuple(v) for r, v in out.items()}
 
     @functools.cached_property
     def lateral(self) -> tuple[Lateral, ...]:
@@ -176,7 +194,7 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     s_now = (world.s[k_of[risk.i]], world.s[k_of[risk.j]])
     d = (risk.s_cp_i - s_now[0], risk.s_cp_j - s_now[1])
     leaders = _leaders(risk, d, k_of, model.conflict_clearance)
-    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm)
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, world.human)
     return leaders, lateral
 
 
@@ -212,9 +230,10 @@ def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
 
 
 def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
-              pidx: np.ndarray, model: ModelSettings, etm: bool) -> LateralPairs:
+              pidx: np.ndarray, model: ModelSettings, etm: bool, human: np.ndarray | None) -> LateralPairs:
     """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
-    whose two vehicles have not cleared the crossing (in the ETM's order)."""
+    whose two vehicles have not cleared the crossing (in the ETM's order). ``human``: bool per
+    World vehicle, a human driver (None: none)."""
     is_active = np.zeros(int(k_of.max()) + 1 if len(k_of) else 0, bool)  # by World index
     is_active[[k for k in active if k < len(is_active)]] = True
     row_active = is_active[k_of]
@@ -233,7 +252,12 @@ def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: Conflic
     # past its exit, handed back to SUMO) may still have its rear in the crossing: guarded, no game
     kept = ~((s_now[0][m] > zone_i[1]) | (s_now[1][m] > zone_j[1]))
     clear = model.conflict_clearance
-    live = a_i[m] & a_j[m] & ~((d[0][m] < -clear) | (d[1][m] < -clear))
-    play = live & (risk.trigger[m] | (not etm))
+    open_ = ~((d[0][m] < -clear) | (d[1][m] < -clear))
+    live = a_i[m] & a_j[m] & open_
+    fired = risk.trigger[m] | (not etm)
+    play = live & fired
+    h_i, h_j = (np.zeros(len(m), bool),) * 2 if human is None else (human[k_of[ri]], human[k_of[rj]])
+    with_human = open_ & fired & ((a_i[m] & h_j) | (a_j[m] & h_i))
     return LateralPairs(ri[kept], rj[kept], cross[kept], s_i[kept], s_j[kept], live[kept], play[kept],
-                        np.stack(zone_i, axis=1)[kept], np.stack(zone_j, axis=1)[kept])
+                        np.stack(zone_i, axis=1)[kept], np.stack(zone_j, axis=1)[kept], with_human[kept],
+                        h_j[kept])

@@ -50,12 +50,12 @@ from typing import Mapping, NamedTuple
 import numpy as np
 
 from intersection_cosim.control.base import Decisions, World
+from intersection_cosim.control.plan_memory import human_forecast
 from intersection_cosim.control.relations import Lateral, Relations
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.cost import time_to_conflict_point
-from intersection_cosim.models.prediction import human_accelerations
 from intersection_cosim.models.settings import ModelSettings
 
 
@@ -333,11 +333,7 @@ class SafetyFilter:
         """The plan the filter checks for vehicle k: this step's, or constant speed for one
         SUMO drives again (it has left the junction); None for one without a plan."""
         if world.is_human(k):
-            v_cap = float(world.desired_speed[k]) if world.desired_speed is not None and \
-                math.isfinite(float(world.desired_speed[k])) else self.model.v_max
-            a = human_accelerations(float(world.v[k]), float(world.a[k]), self.problem.a_max, max(v_cap, float(world.v[k])),
-                                    self.problem.steps, self.problem.dt)
-            return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), a, self.problem.dt)
+            return human_forecast(world, k, self.problem.a_max, self.model.v_max, self.problem.steps, self.problem.dt)
         plan = plans.get(world.ids[k])
         if plan is None and world.role[k] == "outside":
             return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.problem.steps), self.problem.dt)

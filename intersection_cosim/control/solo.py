@@ -144,6 +144,8 @@ class SoloPlanner:
         last, plan = self._last.get(vid), self.memory.plans.get(vid)
         if last is None or plan is None:
             return None
+        if player_now.crossers:  # a human's forecast moves with its measured state: solve again
+            return None
         if (last.age + 1 >= self.policy.free_resolve_steps or last.option != option
                 or self.memory.options.get(vid) != option or (last.leader is None) != (player_now.leader is None)):
             return None

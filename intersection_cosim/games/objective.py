@@ -31,6 +31,7 @@ search of the best response make up for what it ignores.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -110,14 +111,18 @@ class PlayerObjective:
                 raise ValueError(f"player {p}: leader trajectory must have {self.n} steps")
             self.log_terms.append((EXOGENOUS, 0.0))
             self._exo = (s_l - ms.vehicle_length, v_l)
+        # crossing non-players (Player.crossers): their J_lat data is fixed, computed once
+        self._lat_fixed = [self._lateral_data(scp, scp_q, s_q, v_q) for scp, scp_q, s_q, v_q in pl.crossers]
         if self.w_lat <= 0.0:
-            self.lat_terms = []
+            self.lat_terms, self._lat_fixed = [], []
         if self.w_log <= 0.0:
             self.log_terms = []
         # exact quadratic part (efficiency + comfort): 1/2 a^T Q a + b0^T a + const
         self.Q = _quadratic_part(self.n, dt, self.w_e, self.w_acc, self.jerk_w)
         self.b0 = (2.0 * self.w_e * (self.v0 - self.v_max)) * hm.dtLv_colsum
-        self._lat: list = []  # per lateral term: (s_cp own, TCP of the other (N,), other not passed (N,))
+        # per lateral term (lat_terms, then the fixed crossers): (s_cp own, TCP of the other (N,),
+        # other not passed (N,))
+        self._lat: list = list(self._lat_fixed)
         self._log: list = []  # per following term: (leader s in own frame minus length (N,), leader v (N,))
         if self._exo is not None and self.log_terms and not self.lat_terms and len(self.log_terms) == 1:
             self._log = [self._exo]  # nothing else to wait for: usable before set_others
@@ -125,16 +130,13 @@ class PlayerObjective:
     @property
     def coupled(self) -> bool:
         """True when the cost depends on other players (the model is then only an approximation)."""
-        return bool(self.lat_terms or self.log_terms)
+        return bool(self.lat_terms or self.log_terms or self._lat_fixed)
 
     # ------------------------------------------------------------------ data of the others
     def set_others(self, plans) -> None:
         """``plans[q]`` is player q's Plan (entries of players without a term are ignored)."""
-        self._lat = []
-        for q, scp, scp_q in self.lat_terms:
-            v_q, s_q = plans[q].speeds[1:], plans[q].positions[1:]
-            tcp_q = time_to_conflict_point(scp_q - s_q, v_q, self._floor)
-            self._lat.append((scp, tcp_q, (s_q - scp_q) <= self._clr))
+        self._lat = [self._lateral_data(scp, scp_q, plans[q].positions[1:], plans[q].speeds[1:])
+                     for q, scp, scp_q in self.lat_terms] + self._lat_fixed
         self._log = []
         for q, offset in self.log_terms:
             if q == EXOGENOUS:
@@ -142,6 +144,12 @@ class PlayerObjective:
                 continue
             self._log.append((plans[q].positions[1:] + (offset - self.ms.vehicle_length),
                               plans[q].speeds[1:]))
+
+    def _lateral_data(self, scp: float, scp_q: float, s_q: np.ndarray, v_q: np.ndarray) -> tuple:
+        """J_lat data of one crossing: (s_cp own [m], the other's TCP (N,) [s] (Eqs. 21-22), the
+        other not yet past its point by conflict_clearance (N,)) from its positions ``s_q`` [m]
+        and speeds ``v_q`` [m/s] over the horizon."""
+        return (scp, time_to_conflict_point(scp_q - s_q, v_q, self._floor), (s_q - scp_q) <= self._clr)
 
     def plan(self, a: np.ndarray, duals: np.ndarray | None = None) -> Plan:
         """The player's Plan for accelerations ``a`` (N,)."""
@@ -359,7 +367,8 @@ class PlayerObjective:
         if self._lat:
             inv = 1.0 / np.maximum(v, self._floor)
             inv_q = 1.0 / np.maximum(v_q, self._floor)
-            for (other, _scp, scp_q), (scp, tcp_q, open_q) in zip(self.lat_terms, self._lat):
+            fixed = [(EXOGENOUS, math.nan, math.nan)] * len(self._lat_fixed)  # never q
+            for (other, _scp, scp_q), (scp, tcp_q, open_q) in zip(self.lat_terms + fixed, self._lat):
                 d = scp - s
                 active = (s <= scp + self._clr) & open_q
                 if not active.any():

@@ -44,6 +44,12 @@ class Player:
     #: the leader's cost has no term for its follower, so this is part of the player's own
     #: problem, not a game. Kept by :meth:`Problem.decoupled`.
     leader: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    #: Crossing vehicles that are not players (human drivers): per crossing (s_cp own [m], s_cp on
+    #: the other's path [m], its predicted positions s_1..s_N [m] in its own path, its speeds
+    #: v_1..v_N [m/s]). Each enters the player's J_lat (Eqs. 19-22) like a cross interaction with
+    #: a partner whose plan is fixed: part of the player's own problem, kept by
+    #: :meth:`Problem.decoupled`.
+    crossers: tuple[tuple[float, float, np.ndarray, np.ndarray], ...] = field(default=(), repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -120,6 +126,8 @@ class Problem:
                 out.append(f"player {k}: kappa must lie in [0, 1]")
             if p.leader is not None and not all(np.all(np.isfinite(x)) for x in p.leader):
                 out.append(f"player {k}: leader trajectory is not finite")
+            if any(not all(np.all(np.isfinite(x)) for x in c) for c in p.crossers):
+                out.append(f"player {k}: a crossing trajectory is not finite")
         for m, it in enumerate(self.interactions):
             if it.kind not in INTERACTION_KINDS:
                 out.append(f"interaction {m}: unknown kind {it.kind!r}")

@@ -193,7 +193,7 @@ def test_a_leader_on_a_parting_path_stops_counting_past_the_shared_stretch(contr
                                    30.0)
         lead = relations.leader_of(1, world.exit_choices["F"][0])
         assert lead.vehicle == 0
-        s_pred, _v = leader_trajectory(world, lead, PlanMemory(1, 0.1, 30, 0.1))  # no plans: coasting
+        s_pred, _v = leader_trajectory(world, lead, PlanMemory(1, 0.1, 30, 0.1, 2.5, 13.89))  # no plans: coasting
         clear_at = end + controller.model.conflict_clearance  # [m] its rear past the end
         beyond = s_pred > clear_at
         assert beyond.any() and not beyond.all()  # it gets there within the horizon

@@ -7,6 +7,8 @@ import numpy as np
 
 from intersection_cosim.control.base import ControlContext, Decisions
 from intersection_cosim.control.game import GameController
+from intersection_cosim.control.plan_memory import PlanMemory
+from intersection_cosim.control.players import player
 from intersection_cosim.control.relations import step_relations
 from intersection_cosim.control.safety import SafetyFilter
 from intersection_cosim.control.settings import PolicySettings, SafetySettings
@@ -122,3 +124,27 @@ def test_an_av_waits_at_its_stop_line_while_a_human_brakes_to_stop_in_its_crossi
     assert stop_line > s_l
     assert np.isclose(d.accel["L"], -8.0 ** 2 / (2 * (stop_line - s_l))) and held == {"L"}
     assert d.accel["L"] > PROBLEM.a_min
+
+
+def test_a_triggered_crossing_with_a_human_enters_the_avs_j_lat_with_the_humans_forecast(paths, movements,
+                                                                                       conflict_table):
+    """L (AV) and S (human) both 14 m before their zones at 8 m/s: the ETM fires, and L's player
+    carries S as a crosser: S's forecast (8 m/s held: acceleration 0 measured) from its measured
+    state, the conflict point on each path. Between two AVs the same pair is a game, no crosser."""
+    t = conflict_table
+    memory = PlanMemory(1, 0.1, PROBLEM.steps, PROBLEM.dt, PROBLEM.a_max, MODEL.v_max)
+    for human in (True, False):
+        world, s_l, s_s = _crossing_world(paths, t, human=human, d_left=14.0, d_straight=14.0)
+        active = {k for k in range(len(world)) if not world.is_human(k)}
+        rel = step_relations(world, active, movements, t, MODEL, True, {}, RANGE)
+        opt = paths[LEFT].exit_lane
+        crossers = player(world, 0, opt, rel, memory).crossers
+        if not human:
+            assert crossers == () and rel.triggered_pairs() == {(0, 1)}
+            continue
+        assert rel.triggered_pairs() == frozenset()  # no game with a human
+        (s_own, s_h, s_pred, v_pred), = crossers
+        p, q = t.index[LEFT], t.index[STRAIGHT]
+        assert s_own == t.s_a[p, q] and s_h == t.s_a[q, p]
+        np.testing.assert_allclose(v_pred, 8.0)
+        np.testing.assert_allclose(s_pred, s_s + 8.0 * PROBLEM.dt * np.arange(1, PROBLEM.steps + 1))

@@ -15,7 +15,7 @@ def _plan(a0=0.0):
 
 
 def test_a_warm_start_is_shifted_by_the_periods_since_its_solve_and_expires_past_half_the_horizon():
-    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT)
+    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT, a_max=2.5, v_max=13.89)
     key = GameKey("A", "B", "inner", "middle")
     stored = (_plan(0.0), _plan(-1.0))
     memory.store(key, 1.0, stored)
@@ -31,14 +31,14 @@ def test_a_warm_start_is_shifted_by_the_periods_since_its_solve_and_expires_past
 
 
 def test_a_control_period_of_several_solver_steps_shifts_by_all_of_them():
-    memory = PlanMemory(shift=2, period=0.2, steps=STEPS, dt=DT)
+    memory = PlanMemory(shift=2, period=0.2, steps=STEPS, dt=DT, a_max=2.5, v_max=13.89)
     plan = _plan()
     assert np.allclose(memory.shifted(plan).accelerations[:-2], plan.accelerations[2:])
     assert np.allclose(memory.shifted(plan, 3).accelerations[:-6], plan.accelerations[6:])
 
 
 def test_warm_starts_of_departed_vehicles_are_pruned_and_keys_are_typed():
-    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT)
+    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT, a_max=2.5, v_max=13.89)
     memory.store(SoloKey("A", "inner"), 0.0, (_plan(),))
     memory.store(GameKey("A", "B", "inner", "inner"), 0.0, (_plan(), _plan()))
     memory.store(GameKey("C", "D", "inner", "inner"), 0.0, (_plan(), _plan()))
@@ -48,7 +48,7 @@ def test_warm_starts_of_departed_vehicles_are_pruned_and_keys_are_typed():
 
 
 def test_driven_and_kept_plans():
-    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT)
+    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT, a_max=2.5, v_max=13.89)
     plan = _plan()
     memory.apply("A", plan, "middle")
     assert memory.driven_plan("A", "inner") is None  # driving another exit lane
