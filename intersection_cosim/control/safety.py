@@ -35,7 +35,8 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   :func:`~intersection_cosim.models.prediction.human_accelerations` (its present acceleration
   clipped to [0, a_max], never braking). Before it enters the junction it ranks ahead of every AV
   not yet in (it will not yield to them; an AV that can still stay out of the crossing does, one
-  that cannot holds back as hard as it may), behind every vehicle already in the junction (SUMO's
+  that cannot holds back as hard as it may, unless that would stop it inside the crossing: then it
+  drives out, as SUMO's human brakes for a vehicle in its way), behind every vehicle already in the junction (SUMO's
   own model makes a human wait for a vehicle in its crossing, and that AV drives out by the box
   rule); inside, it ranks by its entry like an AV. The filter never caps a human. An AV not yet
   in the junction waits at its stop line while a human of its crossing stands in that crossing or
@@ -298,7 +299,16 @@ class SafetyFilter:
                     clear.add(ids[other.k])
                 return
         k = lower_first[0].k
+        if world.is_human(lower_first[1].k) and self._would_stop_in(world, k, lower_first[0].enter):
+            clear.add(ids[k])  # holding back would leave it standing in the human's way: drive out
+            return
         cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self.problem.a_min, -float(world.v[k]) / self.period))
+
+    def _would_stop_in(self, world: World, k: int, enter: float) -> bool:
+        """Whether vehicle k, braking as hard as it may (|a_min| [m/s^2]) after one control period,
+        comes to a stop at or past arc length ``enter`` [m]: in the crossing it was to stay out of."""
+        s, v = float(world.s[k]), float(world.v[k])  # [m], [m/s]
+        return s + v * self.period + v * v / (2.0 * -self.problem.a_min) >= enter
 
     def _hold_for_human(self, world: World, relations: Relations, lat: Lateral, cap: dict[str, float]) -> None:
         """Cap (into ``cap``) an AV not yet in the junction to wait at its stop line while the
@@ -371,10 +381,9 @@ class SafetyFilter:
         at the model's hardest braking |a_min| [m/s^2], after a control period at its present
         speed (it reacts no faster than the controller), reaches past it. A standing human
         (below ``clear_speed``) is not committed: it starts again only when SUMO lets it."""
-        v = float(world.v[k])  # [m/s]
-        if v < self.settings.clear_speed:  # standing (at its stop line, held by SUMO's right of way)
+        if float(world.v[k]) < self.settings.clear_speed:  # standing (at its stop line, held by SUMO's right of way)
             return False
-        return float(world.s[k]) + v * self.period + v * v / (2.0 * -self.problem.a_min) >= enter
+        return self._would_stop_in(world, k, enter)
 
     def _stay_out(self, world: World, k: int, s_stop: float, enter: float) -> float | None:
         """[m/s^2] the acceleration that keeps vehicle k out of a zone starting at ``enter`` [m]:

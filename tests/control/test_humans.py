@@ -148,3 +148,32 @@ def test_a_triggered_crossing_with_a_human_enters_the_avs_j_lat_with_the_humans_
         assert s_own == t.s_a[p, q] and s_h == t.s_a[q, p]
         np.testing.assert_allclose(v_pred, 8.0)
         np.testing.assert_allclose(s_pred, s_s + 8.0 * PROBLEM.dt * np.arange(1, PROBLEM.steps + 1))
+
+
+def test_an_av_in_the_box_that_cannot_stay_out_of_a_humans_crossing_drives_out_instead_of_stopping_in_it(
+        paths, movements, conflict_table):
+    """The medium-demand incident (av_share 0.5, seed 1): an AV turning left is 4.1 m before its
+    crossing with an oncoming human at 8.15 m/s (it needs 8.3 m to stop at |a_min| = 4 m/s^2); the
+    human, 11.6 m before its zone at 9.3 m/s, can no longer stop either and ranks first. Braking
+    hard would leave the AV standing in the human's way (SUMO's human brakes for it, then drives
+    on into it): it drives out. 15 m before its zone it can still stop short of it, and does."""
+    t = conflict_table
+    left, straight = "south_inner_left_inner", "north_inner_straight_inner"
+    p, q = t.index[left], t.index[straight]
+    for to_zone, drives_out in ((4.1, True), (15.0, False)):
+        s_av, s_h = t.zone_in[p, q] - to_zone, t.zone_in[q, p] - 11.6
+        world = make_world(paths, 10.0, [("L", left, s_av, 8.15), ("H", straight, s_h, 9.3)])
+        world = dataclasses.replace(world, human=np.array([False, True]), a=np.array([2.5, 1.7]),
+                                    role=["passing", "ready"])
+        plan = Plan.from_accelerations(s_av, 8.15, np.full(PROBLEM.steps, 0.5), PROBLEM.dt)
+        d = Decisions(accel={"L": 0.5})
+        active = {0}
+        rel = step_relations(world, active, movements, t, MODEL, True, {}, RANGE)
+        f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+        f.record_entries(world)
+        f.apply(world, rel, {"L": plan}, {}, d)
+        if drives_out:
+            assert d.accel["L"] >= GS.clear_accel  # through, at least clear_accel
+        else:
+            assert d.accel["L"] < -1.0  # stops short of the crossing
+        assert "H" not in d.accel
