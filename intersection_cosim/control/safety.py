@@ -195,19 +195,23 @@ class SafetyFilter:
             for vid, limit in cap.items():
                 if vid in plans and limit < float(plans[vid].accelerations[0]):
                     plans[vid] = braking_plan(plans[vid], max(limit, self.problem.a_min))
-            for m in guarded[self._maybe_close(world, relations, guarded, plans)]:
-                self._guard(world, relations, pairs.at(m), plans, cap, clear)
+            close, occ = self._maybe_close(world, relations, guarded, plans)
+            for n in np.flatnonzero(close):
+                self._guard(world, relations, pairs.at(guarded[n]), plans, cap, clear,
+                            None if occ is None else tuple(float(x[n]) for x in occ))
         return self._enforce(decisions, cap, leader_cap, clear)
 
     def _maybe_close(self, world: World, relations: Relations, guarded: np.ndarray,
-                     plans: Mapping[str, Plan]) -> np.ndarray:
+                     plans: Mapping[str, Plan]) -> tuple[np.ndarray, tuple | None]:
         """(len(guarded),) bool for the lateral pairs ``guarded`` (indices into
         ``relations.pairs``): False where :meth:`_guard` would find at once that the plans
         keep the crossing clear (it does nothing then), computed for all pairs together with
         :func:`occupancy_times`; True where it must look (also for a pair with a plan missing or
-        a plan whose positions go backwards, which it checks itself)."""
+        a plan whose positions go backwards, which it checks itself). Second: the occupancy
+        times (in_i, out_i, in_j, out_j) [s] per pair, for :meth:`_guard` (None below
+        ``VECTOR_MIN_PAIRS`` pairs; an entry of a pair with an unusable plan is not used)."""
         if len(guarded) < VECTOR_MIN_PAIRS:  # the per-pair guard's own check is cheaper
-            return np.ones(len(guarded), bool)
+            return np.ones(len(guarded), bool), None
         pairs, vehicle = relations.pairs, relations.rows.vehicle
         ki, kj = vehicle[pairs.ri[guarded]], vehicle[pairs.rj[guarded]]
         ks = np.unique(np.concatenate([ki, kj]))
@@ -225,7 +229,9 @@ class SafetyFilter:
         in_j, out_j = occupancy_times(pos, lengths, dt, b, zone_j[:, 0]), occupancy_times(pos, lengths, dt, b, zone_j[:, 1])
         gap = self.settings.safety_time_gap  # [s]
         apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
-        return ~(apart & usable[a] & usable[b])
+        ok = usable[a] & usable[b]
+        exact = ok & np.isfinite(zone_i).all(axis=1) & np.isfinite(zone_j).all(axis=1)  # as occupancy()
+        return ~(apart & ok), (np.where(exact, in_i, np.nan), out_i, in_j, out_j)
 
     def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions) -> dict[str, float]:
         """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed."""
@@ -261,7 +267,7 @@ class SafetyFilter:
         return frozenset(held)
 
     def _guard(self, world: World, relations: Relations, lat: Lateral, plans: dict[str, Plan],
-               cap: dict[str, float], clear: set[str]) -> None:
+               cap: dict[str, float], clear: set[str], occ: tuple[float, ...] | None = None) -> None:
         """Caps (into ``cap``) for one crossing that the ``plans`` would share within
         ``safety_time_gap``: the lower-ranked vehicle yields if it can still stay out of its zone
         (waiting at its stop line if it has not reached it: AIM's rule, enter only to clear);
@@ -274,8 +280,11 @@ class SafetyFilter:
         pi, pj = self._plan_of(world, ki, plans), self._plan_of(world, kj, plans)
         if pi is None or pj is None:
             return
-        in_i, out_i = occupancy(pi, *lat.zone_i)
-        in_j, out_j = occupancy(pj, *lat.zone_j)
+        if occ is not None and not math.isnan(occ[0]):  # _maybe_close's values, bit for bit
+            in_i, out_i, in_j, out_j = occ
+        else:
+            in_i, out_i = occupancy(pi, *lat.zone_i)
+            in_j, out_j = occupancy(pj, *lat.zone_j)
         if in_i >= out_j + st.safety_time_gap or in_j >= out_i + st.safety_time_gap:
             return  # the plans keep the crossing clear
         ti, tj = self._arrival(world, lat, ki, kj, in_i, in_j)
