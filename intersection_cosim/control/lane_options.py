@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping
 
+import numpy as np
 import sumolib
 
 from intersection_cosim.control.base import World
@@ -58,19 +59,31 @@ def lane_options(world: World, relations: Relations, movements: Movements,
     return LaneOptions(out, ages)
 
 
-def _partners(relations: Relations) -> dict[int, dict[str, tuple]]:
-    """World index -> exit lane -> (lateral partners, leader) of that row."""
+def _partners(relations: Relations) -> dict[int, dict[str, tuple | None]]:
+    """World index -> exit lane -> (lateral partners, leader) of that row; None for the one row
+    of a vehicle without a choice (nothing compares it). Only pairs with a row of a choosing
+    vehicle are walked in Python: the step's cost grows with those, not with all live pairs."""
     rows, pairs = relations.rows, relations.pairs
-    partners: dict[int, set] = {r: set() for r in range(len(rows))}
+    vehicle = np.asarray(rows.vehicle)
+    choosing = np.bincount(vehicle, minlength=int(vehicle.max()) + 1)[vehicle] > 1 if len(vehicle) else \
+        np.zeros(0, bool)  # per row: its vehicle has more than one row
+    partners: dict[int, set] = {r: set() for r in np.flatnonzero(choosing).tolist()}
     live = pairs.live
     ri, rj = pairs.ri[live], pairs.rj[live]
-    for a, b, ka, kb in zip(ri.tolist(), rj.tolist(), rows.vehicle[ri].tolist(), rows.vehicle[rj].tolist()):
-        partners[a].add(kb)
-        partners[b].add(ka)
-    sig: dict[int, dict[str, tuple]] = {}
-    for r, k in enumerate(rows.vehicle):
+    m = choosing[ri] | choosing[rj]
+    ri, rj = ri[m], rj[m]
+    for a, b, ka, kb in zip(ri.tolist(), rj.tolist(), vehicle[ri].tolist(), vehicle[rj].tolist()):
+        if a in partners:
+            partners[a].add(kb)
+        if b in partners:
+            partners[b].add(ka)
+    sig: dict[int, dict[str, tuple | None]] = {}
+    for r, k in enumerate(vehicle.tolist()):
+        if r not in partners:
+            sig.setdefault(k, {})[rows.option[r]] = None
+            continue
         lead = relations.leaders.get(r)
-        sig.setdefault(int(k), {})[rows.option[r]] = (frozenset(partners[r]), lead.vehicle if lead else None)
+        sig.setdefault(k, {})[rows.option[r]] = (frozenset(partners[r]), lead.vehicle if lead else None)
     return sig
 
 

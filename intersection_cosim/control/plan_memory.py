@@ -46,6 +46,8 @@ class GameKey:
 
 WarmKey = Union[SoloKey, GameKey]
 
+SHIFT_CACHE_SIZE = 4096  # [-] shifted plans kept (a few per controlled vehicle and step)
+
 
 def human_forecast(world: World, k: int, a_max: float, v_max: float, steps: int, dt: float) -> Plan:
     """The plan human driver k is predicted to drive (models.prediction.human_accelerations: its
@@ -73,6 +75,7 @@ class PlanMemory:
         self.plans: dict[str, Plan] = {}  # plan applied at the last step, per vehicle
         self.options: dict[str, str] = {}  # exit lane chosen at the last step, per vehicle
         self._warm: dict[WarmKey, tuple[float, tuple[Plan, ...]]] = {}  # key -> ([s] solved at, plans)
+        self._shifts: dict[int, tuple[Plan, Plan]] = {}  # id(plan) -> (plan, shift_plan(plan))
 
     # ------------------------------------------------------------ applied plans
     def apply(self, vehicle: str, plan: Plan, option: str) -> None:
@@ -91,8 +94,21 @@ class PlanMemory:
     def shifted(self, plan: Plan, periods: int = 1) -> Plan:
         """``plan`` moved on by ``periods`` control periods."""
         for _ in range(periods * self.shift):
-            plan = shift_plan(plan)
+            plan = self._shift_once(plan)
         return plan
+
+    def _shift_once(self, plan: Plan) -> Plan:
+        """:func:`shift_plan`, computed once per Plan object: a step shifts the same plan as a
+        vehicle's own warm start, its reuse check and its follower's leader prediction (Plans
+        are immutable; the entry holds the plan itself, so a recycled id never matches)."""
+        hit = self._shifts.get(id(plan))
+        if hit is not None and hit[0] is plan:
+            return hit[1]
+        if len(self._shifts) >= SHIFT_CACHE_SIZE:
+            self._shifts.clear()
+        out = shift_plan(plan)
+        self._shifts[id(plan)] = (plan, out)
+        return out
 
     def from_state(self, world: World, k: int, a) -> Plan:
         """The plan of accelerations ``a`` [m/s^2] started from vehicle k's measured state."""

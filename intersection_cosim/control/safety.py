@@ -90,15 +90,28 @@ def occupancy_times(positions: np.ndarray, lengths: np.ndarray, dt: np.ndarray, 
     :func:`occupancy` computes it, for many (plan, target) at once: ``positions`` (P, L) [m] the
     plans' positions (each non-decreasing, padded with inf past its ``lengths`` (P,) samples),
     ``dt`` (P,) [s] their steps. Bit for bit the values of :func:`occupancy`."""
+    return reach_times(positions, lengths, dt, row, target)[0]
+
+
+def reach_times(positions: np.ndarray, lengths: np.ndarray, dt: np.ndarray, row: np.ndarray,
+                target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`occupancy_times` [s] for plans that need not be non-decreasing, and (M,) bool:
+    where the value is bit for bit :func:`occupancy`'s. That holds where the samples before
+    the first one at or past the target all lie below it (then a binary search finds that
+    sample, whatever the order of the rest): always for a non-decreasing plan, and for a
+    plan that stands still to the last bit (its positions wobble by 1e-15) unless the
+    target lies inside the wobble."""
     pos = positions[row]  # (M, L)
-    k = (pos < target[:, None]).sum(axis=1)  # = searchsorted: first sample at or past target
+    below = pos < target[:, None]
+    k = below.sum(axis=1)  # = searchsorted: first sample at or past target
+    exact = (below.argmin(axis=1) == k) | (k == below.shape[1])  # argmin: the first sample not below
     n = lengths[row]
     kk = np.clip(k, 1, positions.shape[1] - 1)
     m = np.arange(len(row))
     p0, p1 = pos[m, kk - 1], pos[m, kk]
     with np.errstate(invalid="ignore"):  # padded (inf) samples where k >= n: not used
         t = dt[row] * (kk - 1 + (target - p0) / np.maximum(p1 - p0, 1e-9))
-    return np.where(k == 0, 0.0, np.where(k >= n, math.inf, t))
+    return np.where(k == 0, 0.0, np.where(k >= n, math.inf, t)), exact
 
 
 def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:
@@ -196,19 +209,23 @@ class SafetyFilter:
             for vid, limit in cap.items():
                 if vid in plans and limit < float(plans[vid].accelerations[0]):
                     plans[vid] = braking_plan(plans[vid], max(limit, self.problem.a_min))
-            for m in guarded[self._maybe_close(world, relations, guarded, plans)]:
-                self._guard(world, relations, pairs.at(m), plans, cap, clear)
+            close, occ = self._maybe_close(world, relations, guarded, plans)
+            for n in np.flatnonzero(close):
+                self._guard(world, relations, pairs.at(guarded[n]), plans, cap, clear,
+                            None if occ is None else tuple(float(x[n]) for x in occ))
         return self._enforce(decisions, cap, leader_cap, clear)
 
     def _maybe_close(self, world: World, relations: Relations, guarded: np.ndarray,
-                     plans: Mapping[str, Plan]) -> np.ndarray:
+                     plans: Mapping[str, Plan]) -> tuple[np.ndarray, tuple | None]:
         """(len(guarded),) bool for the lateral pairs ``guarded`` (indices into
         ``relations.pairs``): False where :meth:`_guard` would find at once that the plans
         keep the crossing clear (it does nothing then), computed for all pairs together with
         :func:`occupancy_times`; True where it must look (also for a pair with a plan missing or
-        a plan whose positions go backwards, which it checks itself)."""
+        a plan whose positions go backwards where it matters, which it checks itself). Second: the occupancy
+        times (in_i, out_i, in_j, out_j) [s] per pair, for :meth:`_guard` (None below
+        ``VECTOR_MIN_PAIRS`` pairs; an entry of a pair with an unusable plan is not used)."""
         if len(guarded) < VECTOR_MIN_PAIRS:  # the per-pair guard's own check is cheaper
-            return np.ones(len(guarded), bool)
+            return np.ones(len(guarded), bool), None
         pairs, vehicle = relations.pairs, relations.rows.vehicle
         ki, kj = vehicle[pairs.ri[guarded]], vehicle[pairs.rj[guarded]]
         ks = np.unique(np.concatenate([ki, kj]))
@@ -218,15 +235,17 @@ class SafetyFilter:
         lengths, dt = np.zeros(len(ks), np.intp), np.ones(len(ks))
         usable = np.zeros(len(ks), bool)
         for n, p in enumerate(own):
-            if p is not None and bool(np.all(np.diff(p.positions) >= 0.0)):
+            if p is not None:
                 pos[n, :len(p.positions)], lengths[n], dt[n], usable[n] = p.positions, len(p.positions), p.dt, True
         a, b = np.searchsorted(ks, ki), np.searchsorted(ks, kj)
         zone_i, zone_j = pairs.zone_i[guarded], pairs.zone_j[guarded]  # [m]
-        in_i, out_i = occupancy_times(pos, lengths, dt, a, zone_i[:, 0]), occupancy_times(pos, lengths, dt, a, zone_i[:, 1])
-        in_j, out_j = occupancy_times(pos, lengths, dt, b, zone_j[:, 0]), occupancy_times(pos, lengths, dt, b, zone_j[:, 1])
+        (in_i, e1), (out_i, e2) = reach_times(pos, lengths, dt, a, zone_i[:, 0]), reach_times(pos, lengths, dt, a, zone_i[:, 1])
+        (in_j, e3), (out_j, e4) = reach_times(pos, lengths, dt, b, zone_j[:, 0]), reach_times(pos, lengths, dt, b, zone_j[:, 1])
         gap = self.settings.safety_time_gap  # [s]
         apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
-        return ~(apart & usable[a] & usable[b])
+        # usable: both plans there, every time as occupancy() has it, at finite zone edges
+        ok = usable[a] & usable[b] & e1 & e2 & e3 & e4 & np.isfinite(zone_i).all(axis=1) & np.isfinite(zone_j).all(axis=1)
+        return ~(apart & ok), (np.where(ok, in_i, np.nan), out_i, in_j, out_j)
 
     def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions) -> dict[str, float]:
         """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed."""
@@ -262,7 +281,7 @@ class SafetyFilter:
         return frozenset(held)
 
     def _guard(self, world: World, relations: Relations, lat: Lateral, plans: dict[str, Plan],
-               cap: dict[str, float], clear: set[str]) -> None:
+               cap: dict[str, float], clear: set[str], occ: tuple[float, ...] | None = None) -> None:
         """Caps (into ``cap``) for one crossing that the ``plans`` would share within
         ``safety_time_gap``: the lower-ranked vehicle yields if it can still stay out of its zone
         (waiting at its stop line if it has not reached it: AIM's rule, enter only to clear);
@@ -275,8 +294,11 @@ class SafetyFilter:
         pi, pj = self._plan_of(world, ki, plans), self._plan_of(world, kj, plans)
         if pi is None or pj is None:
             return
-        in_i, out_i = occupancy(pi, *lat.zone_i)
-        in_j, out_j = occupancy(pj, *lat.zone_j)
+        if occ is not None and not math.isnan(occ[0]):  # _maybe_close's values, bit for bit
+            in_i, out_i, in_j, out_j = occ
+        else:
+            in_i, out_i = occupancy(pi, *lat.zone_i)
+            in_j, out_j = occupancy(pj, *lat.zone_j)
         if in_i >= out_j + st.safety_time_gap or in_j >= out_i + st.safety_time_gap:
             return  # the plans keep the crossing clear
         ti, tj = self._arrival(world, lat, ki, kj, in_i, in_j)

@@ -25,7 +25,7 @@ from intersection_cosim.control.plan_memory import PlanMemory, SoloKey
 from intersection_cosim.control.players import player
 from intersection_cosim.control.relations import Relations
 from intersection_cosim.games.lane_choice import lane_choice_game
-from intersection_cosim.games.nash import nash_equilibrium
+from intersection_cosim.games.nash import solo_response
 from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.settings import GameSettings
@@ -103,10 +103,10 @@ class SoloPlanner:
                 warm[(o,)] = start
         if len(problems) == 1:
             (combo, problem), = problems.items()
-            result = nash_equilibrium(problem, self.solo_gs, self.model, warm_start=warm.get(combo))
+            result = solo_response(problem, self.solo_gs, self.model, warm_start=warm.get(combo))
             return result, combo, {combo: result}
         costs = self.lane_costs.costs(world.path_ids[k], tuple(o for (o,) in problems))
-        lc = lane_choice_game(problems, [costs], solver=nash_equilibrium, settings=self.solo_gs,
+        lc = lane_choice_game(problems, [costs], solver=solo_response, settings=self.solo_gs,
                               model_settings=self.model, warm_starts=warm)
         return lc.result, lc.choice, lc.results
 

@@ -277,3 +277,78 @@ def _finish(game: EquilibriumSolve, plans, residuals, status, t0, history, known
     hist = np.array(history) if history else np.zeros((0, game.n))
     return GameResult(tuple(plans), costs, tuple(residuals), hist, len(residuals), game.qp_count,
                       status, "nash", time.perf_counter() - t0)
+
+
+def solo_response(problem: Problem, settings: GameSettings | None = None,
+                  model_settings: ModelSettings | None = None, warm_start: WarmStart = None) -> GameResult:
+    """:func:`nash_equilibrium` of a one-player problem without interactions (a vehicle in no
+    game), without the machinery of an n-player solve: the same QPs in the same workspace, in
+    the same order, and the same result, at a fraction of the Python overhead.
+
+    The player's best response is its own optimal control against its fixed leader prediction
+    (no partner moves, so the iteration is ``nash_max_iter`` SQP passes of one player). Any other
+    problem is handed to :func:`nash_equilibrium`. Never raises on numerical trouble.
+    """
+    gs = settings or GameSettings()
+    ms = model_settings or ModelSettings()
+    if problem.n != 1 or problem.interactions:
+        return nash_equilibrium(problem, gs, ms, warm_start=warm_start)
+    t0 = time.perf_counter()
+    qps = [0]  # QPs solved so far (kept when a later one fails)
+    try:
+        bad = problem.validate()
+        if bad:
+            raise SolverFailure("; ".join(bad))
+        obj = PlayerObjective(problem, 0, gs, ms)
+        ws = workspace(gs.problem.steps, gs, ("nash", 0))  # the slot nash_equilibrium's player 0 uses
+        warm = warm_list(warm_start, 1)[0]
+        if warm is None:  # the decoupled start of Eq. 33: the problem without the player's leader terms
+            dec = PlayerObjective(problem.decoupled(), 0, gs, ms)
+            out = sqp_best_response(dec, initial_accelerations(dec, None, gs), ws, gs, 1)
+            qps[0] += out.qp_count
+            plan = obj.plan(out.a, out.duals)
+        else:
+            duals = warm.duals if isinstance(warm, Plan) else None
+            if duals is not None and duals.shape != (2 * gs.problem.steps,):
+                duals = None
+            plan = obj.plan(initial_accelerations(obj, warm, gs), duals)
+        plan, residuals, cost = _solo_iterate(obj, ws, gs, plan, qps)
+        if cost is None:  # Jacobi: nash_equilibrium evaluates the final cost afresh
+            obj.set_others((plan,))
+            cost = obj.cost(plan.accelerations)
+        if not (math.isfinite(cost) and np.all(np.isfinite(plan.positions))):
+            raise SolverFailure("non-finite plan or cost")
+        status = "converged" if residuals[-1][1] else "iteration cap"
+        res = tuple(r for r, _ in residuals)
+        return GameResult((plan,), np.array([cost]), res, np.zeros((0, 1)), len(res), qps[0],
+                          status, "nash", time.perf_counter() - t0)
+    except (SolverFailure, ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+        return failure_result(problem, gs, "nash", t0, f"{type(exc).__name__}: {exc}", qps[0])
+
+
+def _solo_iterate(obj: PlayerObjective, ws, gs: GameSettings, plan: Plan, qps: list[int]):
+    """:func:`_iterate` for one player: returns (plan, [(residual [m/s^2], converged)], its cost
+    or None for the Jacobi scheme); adds the QPs solved to ``qps[0]``."""
+    sv = gs.solver
+    delta, hessian = sv.trust_region, None
+    residuals = []
+    for _ in range(sv.nash_max_iter):
+        old = plan.accelerations
+        obj.set_others((plan,))
+        H = None
+        if hessian is not None and not np.abs(old - hessian[1]).max() > sv.hessian_refresh:
+            H = hessian[0]  # as EquilibriumSolve._hessian: the plan moved less than hessian_refresh
+        out = sqp_best_response(obj, old, ws, gs, sv.sqp_steps_per_iteration, trust_region=delta,
+                                duals=plan.duals, hessian=H)
+        qps[0] += out.qp_count
+        delta = out.trust_region
+        gain = (out.cost0 - out.cost) / max(abs(out.cost0), 1e-9)
+        if out.hessian is not None:
+            hessian = out.hessian
+        plan = obj.plan(out.a, out.duals)
+        res = float(np.max(np.abs(plan.accelerations - old)))
+        done = res < sv.nash_tol or (res < sv.nash_cost_guard and gain < sv.nash_cost_rtol)
+        residuals.append((res, done))
+        if done:
+            break
+    return plan, residuals, (None if sv.scheme == "jacobi" else out.cost)

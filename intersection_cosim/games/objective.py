@@ -38,8 +38,7 @@ import numpy as np
 from intersection_cosim.games.dynamics import horizon_matrices, state_offset
 from intersection_cosim.games.problem import Plan, Player, Problem, speed_cap
 from intersection_cosim.games.settings import GameSettings
-from intersection_cosim.models.cost import (efficiency_cost, lateral_safety_cost,
-                                            longitudinal_safety_cost, running_cost,
+from intersection_cosim.models.cost import (lateral_safety_cost, longitudinal_safety_cost,
                                             time_to_conflict_point)
 from intersection_cosim.models.settings import ModelSettings
 
@@ -59,8 +58,10 @@ def comfort_weight(problem, kappa: float) -> float:
     return max(0.0, problem.w_accel + problem.w_accel_kappa * (0.5 - kappa))
 
 
+@functools.lru_cache(maxsize=1024)  # one entry per kappa in play: built once per vehicle, not per solve
 def _quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float) -> np.ndarray:
-    """Hessian of the exact quadratic terms: sum w_e (v - v_max)^2 + dt w_accel a^2 + dt jerk_w da^2."""
+    """Hessian of the exact quadratic terms: sum w_e (v - v_max)^2 + dt w_accel a^2 + dt jerk_w da^2
+    (read-only)."""
     hm = horizon_matrices(n, dt)
     Q = (2.0 * w_e * dt * dt) * hm.LtL + (2.0 * dt * w_accel) * hm.eye + (2.0 * dt * jerk_w) * hm.DtD
     Q.setflags(write=False)
@@ -202,7 +203,10 @@ class PlayerObjective:
         j_log = 0.0
         for s_lead, v_lead in self._log:
             j_log = j_log + longitudinal_safety_cost(s_lead - s, v, v_lead, self._eps)
-        run = running_cost(self.kappa, j_log, j_lat, self.j_lk, efficiency_cost(v, self.v_max, ms.k_e), ms)
+        # running_cost(kappa, j_log, j_lat, j_lk, efficiency_cost(v, v_max, k_e)) (Eqs. 13-14, 24),
+        # written out: the same operations in the same order, without the helpers' conversions
+        j_e = ms.k_e * np.square(v - self.v_max)
+        run = (1.0 - self.kappa) * (ms.k_log * j_log + ms.k_lat * j_lat + ms.k_lk * self.j_lk) + self.kappa * j_e
         if a.ndim == 1:
             da = a[1:] - a[:-1]
             return self.dt * (float(run.sum()) + self.w_acc * float(a @ a)

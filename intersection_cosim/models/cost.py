@@ -18,14 +18,20 @@ def longitudinal_ttc(gap, v, v_lead):
 
     gap [m] is the bumper-to-bumper distance to the leading vehicle (LV), v and v_lead [m/s].
     """
-    gap, dv = np.broadcast_arrays(np.asarray(gap, float), np.asarray(v, float) - np.asarray(v_lead, float))
+    out = _ttc_log(np.asarray(gap, float), np.asarray(v, float) - np.asarray(v_lead, float))
+    return out if out.ndim else float(out)
+
+
+def _ttc_log(gap: np.ndarray, dv: np.ndarray) -> np.ndarray:
+    """TTC_log [s] for arrays gap [m] and closing speed dv [m/s] (:func:`longitudinal_ttc`)."""
+    if gap.shape != dv.shape:
+        gap, dv = np.broadcast_arrays(gap, dv)
     out = np.full(gap.shape, np.inf)
-    closing = dv > 0
-    np.divide(gap, dv, out=out, where=closing)
+    np.divide(gap, dv, out=out, where=dv > 0)
     # Overlapping bodies (gap < 0) have collided: TTC 0 whatever the speeds. Without this a
     # negative gap gives a negative TTC whose cost *falls* as the overlap grows.
-    out = np.where(gap < 0.0, 0.0, out)
-    return out if out.ndim else float(out)
+    np.copyto(out, 0.0, where=gap < 0.0)
+    return out
 
 
 def longitudinal_safety_cost(gap, v, v_lead, eps):
@@ -33,9 +39,14 @@ def longitudinal_safety_cost(gap, v, v_lead, eps):
 
     Dimensionless cost [1/s^2 scaled]; eps [s^2] > 0.
     """
-    ttc = np.asarray(longitudinal_ttc(gap, v, v_lead), float)
-    out = np.where(np.isfinite(ttc), 1.0 / (np.square(np.where(np.isfinite(ttc), ttc, 0.0)) + eps), 0.0)
-    return out if out.ndim else float(out)
+    ttc = _ttc_log(np.asarray(gap, float), np.asarray(v, float) - np.asarray(v_lead, float))
+    finite = np.isfinite(ttc)
+    np.copyto(ttc, 0.0, where=~finite)
+    out = 1.0 / (np.square(ttc) + eps)
+    if not out.ndim:  # a scalar
+        return float(out) if finite else 0.0
+    np.copyto(out, 0.0, where=~finite)
+    return out
 
 
 def time_to_conflict_point(distance, v, speed_floor=0.1):

@@ -59,8 +59,15 @@ def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSetting
     controller later does); inside it, the first vehicle is committed and the second's margin is
     what the decision produced.
     """
-    sa, sb = a["s"].to_numpy(), b["s"].to_numpy()
-    va, vb = a["speed"].to_numpy(), b["speed"].to_numpy()
+    return min_ttc_arrays(conflict, a["s"].to_numpy(), a["speed"].to_numpy(), b["s"].to_numpy(),
+                          b["speed"].to_numpy(), model, zone_a, zone_b)
+
+
+def min_ttc_arrays(conflict, sa: np.ndarray, va: np.ndarray, sb: np.ndarray, vb: np.ndarray,
+                   model: ModelSettings, zone_a: tuple[float, float] | None = None,
+                   zone_b: tuple[float, float] | None = None) -> float:
+    """[s] :func:`pair_min_ttc` on arrays: arc lengths ``sa``, ``sb`` [m] and speeds ``va``,
+    ``vb`` [m/s] of the two vehicles at their common times."""
     if conflict.kind == "following":
         a_leads = sa >= sb
         s_lead, s_follow = np.where(a_leads, sa, sb), np.where(a_leads, sb, sa)
@@ -105,8 +112,14 @@ def post_encroachment_time(a: pd.DataFrame, b: pd.DataFrame, zone_a: tuple[float
     ``zone_out`` is the rear leaving it. Zero when the two were in the zone at once; NaN when a
     vehicle's entry or exit was not recorded.
     """
-    ta, sa = a.index.to_numpy(float), a["s"].to_numpy(float)
-    tb, sb = b.index.to_numpy(float), b["s"].to_numpy(float)
+    return pet_arrays(a.index.to_numpy(float), a["s"].to_numpy(float), b.index.to_numpy(float),
+                      b["s"].to_numpy(float), zone_a, zone_b)
+
+
+def pet_arrays(ta: np.ndarray, sa: np.ndarray, tb: np.ndarray, sb: np.ndarray,
+               zone_a: tuple[float, float], zone_b: tuple[float, float]) -> float:
+    """[s] :func:`post_encroachment_time` on arrays: each vehicle's times ``ta``, ``tb`` [s] and
+    front arc lengths ``sa``, ``sb`` [m]."""
     in_a, out_a = crossing_time(ta, sa, zone_a[0]), crossing_time(ta, sa, zone_a[1])
     in_b, out_b = crossing_time(tb, sb, zone_b[0]), crossing_time(tb, sb, zone_b[1])
     first_a = in_a <= in_b
@@ -145,38 +158,64 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
     ``kinds``: vehicle id -> (driver, vtype), the kinds of the two vehicles of a row (missing:
     ("av", "av"))."""
     kinds = kinds or {}
-    by_vehicle = {vid: g.set_index("time")[["s", "speed"]] for vid, g in traj.groupby("vehicle", sort=True)}
-    spans = {vid: (g.index.min(), g.index.max()) for vid, g in by_vehicle.items()}
-    ssm_key = ssm.assign(a=ssm[["ego", "foe"]].min(axis=1), b=ssm[["ego", "foe"]].max(axis=1)) if len(ssm) else None
+    tracks = _tracks(traj)
+    ssm_min = _ssm_minima(ssm)
     rows = []
     zones = _Zones(paths, model)
-    ids = sorted(by_vehicle)
+    ids = sorted(tracks)
+    first = np.array([tracks[v][0].min() for v in ids])  # [s] first recorded time of each vehicle
+    last = np.array([tracks[v][0].max() for v in ids])  # [s] last one
     for i, va in enumerate(ids):
-        for vb in ids[i + 1:]:
-            if spans[va][1] < spans[vb][0] or spans[vb][1] < spans[va][0]:
-                continue
+        met = np.flatnonzero((last[i + 1:] >= first[i]) & (first[i + 1:] <= last[i])) + i + 1
+        for j in met:
+            vb = ids[j]
             conflict = conflicts.get((final_paths.get(va), final_paths.get(vb)))
             if conflict is None:
                 continue
-            common = by_vehicle[va].merge(by_vehicle[vb], left_index=True, right_index=True,
-                                          suffixes=("_a", "_b"))
-            a = common[["s_a", "speed_a"]].set_axis(["s", "speed"], axis=1)
-            b = common[["s_b", "speed_b"]].set_axis(["s", "speed"], axis=1)
-            ttc_ssm = pet_ssm = np.nan
-            if ssm_key is not None:
-                enc = ssm_key[(ssm_key["a"] == va) & (ssm_key["b"] == vb)]
-                if len(enc):
-                    ttc_ssm, pet_ssm = enc["min_ttc"].min(), enc["pet"].min()
+            (ta, sa, spa), (tb, sb, spb) = tracks[va], tracks[vb]
+            ia, ib = _common_times(ta, tb)
+            ttc_ssm, pet_ssm = ssm_min.get((va, vb), (np.nan, np.nan))
             rows.append({"vehicle_a": va, "vehicle_b": vb, "conflict": conflict.kind,
-                         "min_ttc": pair_min_ttc(conflict, a, b, model, _zone(paths, final_paths.get(va)),
-                                                 _zone(paths, final_paths.get(vb))),
-                         "pet": post_encroachment_time(by_vehicle[va], by_vehicle[vb], zones.zone(conflict),
-                                                       zones.zone(conflict.swapped())),
+                         "min_ttc": min_ttc_arrays(conflict, sa[ia], spa[ia], sb[ib], spb[ib], model,
+                                                   _zone(paths, final_paths.get(va)),
+                                                   _zone(paths, final_paths.get(vb))),
+                         "pet": pet_arrays(ta, sa, tb, sb, zones.zone(conflict), zones.zone(conflict.swapped())),
                          "min_ttc_ssm": ttc_ssm,
                          "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0)),
                          "driver_a": kinds.get(va, ("av", "av"))[0], "driver_b": kinds.get(vb, ("av", "av"))[0],
                          "vtype_a": kinds.get(va, ("av", "av"))[1], "vtype_b": kinds.get(vb, ("av", "av"))[1]})
     return pd.DataFrame(rows, columns=PAIR_COLUMNS)
+
+
+def _tracks(traj: pd.DataFrame) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """vehicle id -> (time [s], s [m], speed [m/s]) in the order of its recorded rows (one
+    sort by vehicle and row, no per-vehicle DataFrame)."""
+    vid = traj["vehicle"].to_numpy()
+    order = np.argsort(vid, kind="stable")
+    vid = vid[order]
+    cols = [traj[c].to_numpy(float)[order] for c in ("time", "s", "speed")]
+    starts = np.flatnonzero(np.r_[True, vid[1:] != vid[:-1]]) if len(vid) else np.zeros(0, int)
+    ends = np.r_[starts[1:], len(vid)]
+    return {vid[a]: tuple(c[a:b] for c in cols) for a, b in zip(starts, ends)}
+
+
+def _common_times(ta: np.ndarray, tb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Indices into ``ta`` and ``tb`` of their common times, in the order of ``ta`` (an inner
+    join on time; each vehicle has at most one row per time)."""
+    ia = np.flatnonzero(np.isin(ta, tb))
+    sorter = np.argsort(tb, kind="stable")
+    ib = sorter[np.searchsorted(tb, ta[ia], sorter=sorter)]
+    return ia, ib
+
+
+def _ssm_minima(ssm: pd.DataFrame) -> dict[tuple[str, str], tuple[float, float]]:
+    """(vehicle, vehicle) in sorted order -> the smallest (min_ttc [s], pet [s]) of SUMO's SSM
+    encounters of the two (NaN where none was finite)."""
+    if not len(ssm):
+        return {}
+    key = ssm.assign(a=ssm[["ego", "foe"]].min(axis=1), b=ssm[["ego", "foe"]].max(axis=1))
+    agg = key.groupby(["a", "b"], sort=False)[["min_ttc", "pet"]].min()
+    return {k: (float(r[0]), float(r[1])) for k, r in zip(agg.index, agg.to_numpy(float))}
 
 
 def _zone(paths: dict[str, MovementPath], pid: str | None) -> tuple[float, float] | None:

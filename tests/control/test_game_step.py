@@ -84,13 +84,13 @@ LANE = "south_middle_straight_middle"  # northbound, straight on: a leader and i
 def _count_solo_solves(monkeypatch) -> list[str]:
     """The names of the players of every solo solve the controller makes from now on."""
     calls = []
-    real = solo_module.nash_equilibrium
+    real = solo_module.solo_response
 
     def counting(problem, *a, **k):
         calls.append(problem.players[0].name)
         return real(problem, *a, **k)
 
-    monkeypatch.setattr(solo_module, "nash_equilibrium", counting)
+    monkeypatch.setattr(solo_module, "solo_response", counting)
     return calls
 
 
@@ -240,7 +240,7 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
 
     c = _nash_controller(paths, net_file, settings=GameControllerSettings(policy=PolicySettings(solo_max_iter=1)))
     solves = []  # (control step, status, iterations) of the follower's solo solves
-    real = solo_module.nash_equilibrium
+    real = solo_module.solo_response
     step = 0
 
     def recording(problem, *a, **k):
@@ -251,7 +251,7 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
                            else result.status, result.iterations))
         return result
 
-    monkeypatch.setattr(solo_module, "nash_equilibrium", recording)
+    monkeypatch.setattr(solo_module, "solo_response", recording)
     path = LANE
     s_stop = paths[path].s_stop
     world = _world(paths, 0.0, [("lead", path, s_stop - 60.0, 3.0), ("follow", path, s_stop - 75.0, 9.0)])

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from intersection_cosim.control.safety import braking_plan, occupancy, occupancy_times
+from intersection_cosim.control.safety import braking_plan, occupancy, occupancy_times, reach_times
 from intersection_cosim.games.problem import Plan
 
 
@@ -55,6 +55,21 @@ def test_occupancy_times_equal_occupancy_bit_for_bit():
     want = [occupancy(plans[r], t, t)[0] for r, t in zip(row, target)]
     assert got.tolist() == want
     assert (got == 0.0).any() and np.isinf(got).any() and ((got > 0.0) & np.isfinite(got)).any()
+
+
+def test_reach_times_flag_exactly_where_a_wobbling_plan_agrees_with_occupancy():
+    """A standing plan whose positions wobble by 1e-15 (as rounding leaves them): away from the
+    wobble the vectorised time is occupancy()'s bit for bit and flagged exact; inside it the
+    flag is off (the filter then asks the per-pair guard)."""
+    pos = np.concatenate((100.0 + np.arange(10) * 0.5, np.full(21, 104.5)))  # [m] drives 4.5 m, stands
+    pos[12], pos[15] = 104.5 - 1e-14, 104.5 + 1e-14  # backwards by 2e-14 at sample 13
+    plan = Plan(np.zeros(30), np.zeros(31), pos, 0.1)
+    targets = np.array([99.0, 101.3, 104.2, 104.5, 104.5 + 5e-15, 110.0])  # [m]
+    got, exact = reach_times(pos[None, :].copy(), np.array([31]), np.array([0.1]), np.zeros(6, np.intp), targets)
+    want = [occupancy(plan, x, x)[0] for x in targets]
+    assert exact.tolist() == [True, True, True, False, False, True]
+    assert got[exact].tolist() == [w for w, e in zip(want, exact) if e]
+    assert got[0] == 0.0 and got[-1] == math.inf and 0.0 < got[2] < 1.0
 
 
 @pytest.mark.parametrize("seed", range(3))
