@@ -13,7 +13,8 @@ from pathlib import Path
 from intersection_cosim.colors import HUMAN
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_INDEX, exit_arm
-from intersection_cosim.scenario.model import Scenario, VehicleSpec
+from intersection_cosim.scenario.model import Scenario, VehicleSpec, VehicleType
+from intersection_cosim.scenario.vtypes import sumo_type
 
 ROUTE_FILE = "scenario.rou.xml"
 SUMOCFG_FILE = "scenario.sumocfg"
@@ -48,12 +49,22 @@ def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow
     ET.SubElement(root, "vType", id="av", length=f"{m.vehicle_length:g}", width=f"{m.vehicle_width:g}",
                   minGap="2.0", accel="2.6", decel="4.5", emergencyDecel="9.0", sigma="0",
                   maxSpeed=f"{m.v_max:g}", speedFactor="1", tau="1.0")
-    if any(v.driver == "human" for v in scn.vehicles) or any(fv.get("driver") == "human" for fv in flow_vehicles):
+    used = {sumo_type(scn.vtype(v.vtype), v.driver) for v in scn.vehicles}
+    used |= {sumo_type(scn.vtype(fv.get("vtype")), fv.get("driver", "av")) for fv in flow_vehicles}
+    if "human" in used:
         _human_vtype(root, scn)
+    for vt in scn.vtypes:
+        for driver in ("av", "human"):
+            if not vt.from_routes and sumo_type(vt, driver) in used and (vt.driver == "av" or driver == "human"):
+                _scenario_vtype(root, scn, vt, driver)
     entries = [_placed_entry(v) if v.route is not None else _paper_placed_entry(scn, v, paths)
                for v in scn.vehicles]
     entries += [_flow_entry(fv) if fv.get("route") is not None else _paper_flow_entry(scn, fv, paths)
                 for fv in flow_vehicles]
+    types = {v.id: sumo_type(scn.vtype(v.vtype), v.driver) for v in scn.vehicles}
+    types |= {fv["id"]: sumo_type(scn.vtype(fv.get("vtype")), fv.get("driver", "av")) for fv in flow_vehicles}
+    for entry in entries:
+        entry[2]["type"] = types[entry[1]]
     entries.sort(key=lambda e: (e[0], e[1]))
     for _, _, attrs, edges in entries:
         el = ET.SubElement(root, "vehicle", attrs)
@@ -74,6 +85,30 @@ def _human_vtype(root: ET.Element, scn: Scenario) -> None:
         attrs["sigma"] = f"{h.sigma:g}"
     else:
         attrs["delta"] = f"{h.delta:g}"
+    ET.SubElement(root, "vType", attrs)
+
+
+def _scenario_vtype(root: ET.Element, scn: Scenario, vt: VehicleType, driver: str) -> None:
+    """The SUMO vType of [[vtype]] ``vt`` for vehicles of ``driver``: its body, limits and colour;
+    an AV's driving attributes as vType ``av``'s, a human's as vType ``human``'s ([human])."""
+    m, h = scn.model, scn.human
+    attrs = dict(id=sumo_type(vt, driver), length=f"{vt.length or m.vehicle_length:g}",
+                 width=f"{vt.width or m.vehicle_width:g}", maxSpeed=f"{vt.max_speed or m.v_max:g}")
+    if driver == "av":
+        attrs.update(minGap=f"{2.0 if vt.min_gap is None else vt.min_gap:g}", accel=f"{vt.accel or 2.6:g}",
+                     decel=f"{vt.decel or 4.5:g}", emergencyDecel=f"{max(9.0, vt.decel or 0.0):g}", sigma="0",
+                     speedFactor="1", tau="1.0")
+    else:
+        attrs.update(minGap=f"{h.min_gap if vt.min_gap is None else vt.min_gap:g}", accel=f"{vt.accel or h.accel:g}",
+                     decel=f"{vt.decel or h.decel:g}", emergencyDecel=f"{max(h.emergency_decel, vt.decel or 0.0):g}",
+                     speedFactor=f"{h.speed_factor:g}", tau=f"{h.tau:g}", carFollowModel=h.model)
+        attrs.update({"sigma": f"{h.sigma:g}"} if h.model == "Krauss" else {"delta": f"{h.delta:g}"})
+        if scn.network.generated:
+            attrs.update(lcSpeedGain="0", lcKeepRight="0")
+    if vt.color:
+        attrs["color"] = ",".join(str(c) for c in vt.color)
+    elif driver == "human":
+        attrs["color"] = ",".join(str(c) for c in HUMAN)
     ET.SubElement(root, "vType", attrs)
 
 
