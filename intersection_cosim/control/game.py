@@ -119,7 +119,7 @@ class GameController:
         game = self.settings.game
         self.ctx, self.model, self.paths = context, context.model, context.paths
         self.table = movement_conflict_table(context.movements, context.model.vehicle_width,
-                                             context.model.vehicle_length)
+                                             context.model.vehicle_length, context.touch_width)
         shift = max(1, int(round(context.control_period / game.dt)))
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt)
         lane_costs = LaneChangeCosts(context.movements, context.model)

@@ -325,6 +325,25 @@ class ConflictTable:
     length: np.ndarray = field(repr=False)  # (P,) [m] total arc length of each path
     zone_in: np.ndarray = field(repr=False, default=None)  # (P, P) [m] cross pairs: see above
     zone_out: np.ndarray = field(repr=False, default=None)  # (P, P) [m]
+    body: tuple[float, float] = (4.5, 1.8)  # [m] (length, width) of the bodies zone_in / zone_out are for
+    paths: dict | None = field(repr=False, compare=False, default=None)  # path id -> MovementPath (other bodies' zones)
+    _other: dict = field(repr=False, compare=False, default_factory=dict)  # cache of :meth:`zone` for other bodies
+
+    def zone(self, p: int, q: int, body_p: tuple[float, float], body_q: tuple[float, float]) -> tuple[float, float]:
+        """[m] (zone_in, zone_out) of cross pair (p, q) for a body ``body_p`` (length, width [m])
+        on path p against the area bodies ``body_q`` sweep on path q: the table's own arrays for
+        its own body, else :func:`conflict_zone` of those bodies, built once per (pair, bodies)
+        and cached (one table per pair of size classes, filled as pairs of them meet)."""
+        if body_p == self.body and body_q == self.body:
+            return float(self.zone_in[p, q]), float(self.zone_out[p, q])
+        key = (p, q, body_p, body_q)
+        if key not in self._other:
+            swept_key = (q, body_q)
+            if swept_key not in self._other:
+                self._other[swept_key] = swept_area(self.paths[self.ids[q]], *body_q)
+            zone = conflict_zone(self.paths[self.ids[p]], self.paths[self.ids[q]], *body_p, self._other[swept_key])
+            self._other[key] = zone if zone is not None else point_zone(float(self.s_a[p, q]), *body_p)
+        return self._other[key]
 
     @classmethod
     def build(cls, paths: dict[str, MovementPath],
@@ -350,7 +369,8 @@ class ConflictTable:
                     zone = point_zone(cp.s_a, vehicle_length, vehicle_width)
                 zone_in[p, q], zone_out[p, q] = zone
         return cls(ids=ids, index=index, kind=kind, s_a=s_a, s_b=s_b, x=x, y=y,
-                   zone_in=zone_in, zone_out=zone_out,
+                   zone_in=zone_in, zone_out=zone_out, body=(float(vehicle_length), float(vehicle_width)),
+                   paths=dict(paths),
                    s_stop=np.array([paths[i].s_stop for i in ids]),
                    s_exit=np.array([paths[i].s_exit for i in ids]),
                    length=np.array([paths[i].length for i in ids]))
@@ -398,9 +418,13 @@ def movement_conflicts(movements: Movements, vehicle_width: float = 1.8) -> dict
 
 
 def movement_conflict_table(movements: Movements, vehicle_width: float = 1.8,
-                            vehicle_length: float = 4.5) -> ConflictTable:
-    """:class:`ConflictTable` of the movements, cached per (``movements.key``, width [m], length [m])."""
+                            vehicle_length: float = 4.5, touch_width: float | None = None) -> ConflictTable:
+    """:class:`ConflictTable` of the movements, cached per (``movements.key``, width [m], length [m],
+    touch width [m]). Its zones are for bodies ``vehicle_length`` x ``vehicle_width``; which
+    paths conflict is decided with centre lines ``touch_width`` apart (default ``vehicle_width``;
+    the widest vehicle type of a run, so two wide bodies on near paths are paired)."""
     width, length = float(vehicle_width), float(vehicle_length)
-    return _cached(("table", movements.key, width, length),
-                   lambda: ConflictTable.build(dict(movements.paths), movement_conflicts(movements, width),
+    touch = width if touch_width is None else float(touch_width)
+    return _cached(("table", movements.key, width, length) + ((touch,) if touch != width else ()),
+                   lambda: ConflictTable.build(dict(movements.paths), movement_conflicts(movements, touch),
                                                length, width))
