@@ -167,6 +167,7 @@ class _Simulated(NamedTuple):
     final_paths: dict  # vehicle id -> the path it drove
     exit_lanes: dict  # vehicle id -> the exit lane it took
     v2x_counts: dict | None = None  # the V2X channel's message counts (None: perfect information)
+    bodies: dict | None = None  # vehicle id -> (length, width) [m] of its SUMO vType (None: not read)
 
 
 class _Tables(NamedTuple):
@@ -333,7 +334,8 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
         sim.close()
         if view is not None:
             view.close()
-    return _Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None)
+    return _Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None,
+                      {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None)
 
 
 def _signals_off(scn: Scenario, controller: Controller) -> bool:
@@ -405,9 +407,10 @@ def _result_tables(scn: Scenario, folder: Path, inputs: _Inputs, simulated: _Sim
     collisions = read_collisions(folder / COLLISIONS_FILE)
     vehicles = vehicle_table(_with_movements(simulated.infos, simulated.final_paths, inputs.paths), tripinfo,
                              simulated.exit_lanes, collisions)
-    pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, scn.model.vehicle_width),
+    touch = max([scn.model.vehicle_width] + [vt.width for vt in scn.vtypes if vt.width is not None])  # [m]
+    pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, touch),
                        scn.model, ssm, simulated.records.game_steps,
-                       {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()})
+                       {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()}, simulated.bodies)
     return _Tables(traj, steps, tripinfo, collisions, vehicles, pairs)
 
 
