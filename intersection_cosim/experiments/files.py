@@ -155,8 +155,15 @@ def _flow_entry(fv: dict) -> RouteEntry:
 
 def route_files(scn: Scenario) -> list[str]:
     """The route files SUMO loads for a run of ``scn``: the run's own (ROUTE_FILE, relative to the
-    run folder), then the user's ``[network] routes`` file (absolute), if any."""
-    return [ROUTE_FILE] + ([scn.network.routes] if scn.network.routes is not None else [])
+    run folder), then the user's ``[network] routes`` file (absolute), if any. When a [[vehicle]]
+    or [[flow]] names a vType of the user's file, that file comes first: SUMO must read the vType
+    before the first vehicle of it."""
+    if scn.network.routes is None:
+        return [ROUTE_FILE]
+    theirs = {vt.id for vt in scn.vtypes if vt.from_routes}
+    if any(spec.vtype in theirs for spec in (*scn.vehicles, *scn.flows)):
+        return [scn.network.routes, ROUTE_FILE]
+    return [ROUTE_FILE, scn.network.routes]
 
 
 def run_output_options(folder: Path) -> list[str]:
