@@ -34,7 +34,8 @@ def exit_room_caps(world: World, movements: Movements, options: Mapping[str, str
     [m/s^2], or has passed it).
 
     ``options``: the exit lane each vehicle takes (its path's own if absent); ``length`` [m] the
-    vehicle length where the World carries none (else each vehicle's own), ``min_gap`` [m] the standstill gap it needs behind the last vehicle,
+    vehicle length where the World carries none (else each vehicle's own), ``min_gap`` [m] the
+    standstill gap it needs behind the last vehicle,
     ``period`` [s] the control period. A vehicle inside the junction claims room on its exit lane
     only while it is slower than ``standing`` [m/s] (one that drives on will be on the lane, and
     in ``World.exit_free``, before the held one could enter).
