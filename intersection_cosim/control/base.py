@@ -117,13 +117,14 @@ class ControlContext:
     control_period: float  # [s]
     settings: object  # the controller's validated [controller.*] settings (None: its defaults)
     etm: bool  # event-triggered mechanism on
-    widest: float | None = None  # [m] the widest body among the run's vehicle types (None: all ModelSettings')
+    bodies: tuple[tuple[float, float], ...] = ()  # [m] (length, width) of each of the run's vehicle
+    #                                               types ((): every vehicle has ModelSettings' body)
 
     @property
     def touch_width(self) -> float:
         """[m] centre lines closer than this may carry touching bodies: the widest vehicle type's
         width (at least ModelSettings.vehicle_width); which paths conflict is decided with it."""
-        return self.model.vehicle_width if self.widest is None else max(self.model.vehicle_width, self.widest)
+        return max([self.model.vehicle_width] + [w for _, w in self.bodies])
 
     @property
     def paths(self) -> Mapping[str, MovementPath]:

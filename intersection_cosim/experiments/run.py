@@ -301,10 +301,11 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     specs = _vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
     infos = {vid: VehicleInfo(**spec) for vid, spec in specs.items()}
     period_steps = _period_steps(scn)
-    widths = [vt.width for vt in scn.vtypes if vt.width is not None]  # [m]
+    m = scn.model
+    bodies = tuple(sorted({(vt.length or m.vehicle_length, vt.width or m.vehicle_width) for vt in scn.vtypes}))  # [m]
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
-                                    etm=scn.controller.etm, widest=max(widths) if widths else None))
+                                    etm=scn.controller.etm, bodies=bodies))
     scheduler = NetworkScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     if gui is not None and not scn.network.generated:  # look at the managed junction, not the origin
         gui = dataclasses.replace(gui, centre=junction_centre(inputs.net, scn.network.junctions[0]))
