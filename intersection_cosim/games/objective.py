@@ -31,7 +31,6 @@ search of the best response make up for what it ignores.
 from __future__ import annotations
 
 import dataclasses
-
 import functools
 
 import numpy as np

@@ -24,7 +24,6 @@ the optimum. A start plan that overlaps a leader is first moved behind it (see
 from __future__ import annotations
 
 import dataclasses
-
 import math
 from dataclasses import dataclass
 from typing import Mapping, NamedTuple, Sequence
