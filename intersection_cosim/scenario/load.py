@@ -418,13 +418,13 @@ def _demand(src: str, data: dict[str, Any], scen: ScenarioSettings, model: Model
             raise InputError(src, "flow.id", f.id, "duplicate id")
         fids.add(f.id)
     if network.routes is not None:
-        _check_route_file_ids(src, network.routes, seen | fids, {vt.id for vt in vtypes if not vt.from_routes})
+        _check_route_file_ids(src, network.routes, seen | fids)
     elif not vehicles and not flows:
         raise InputError(src, "vehicle", [], "a scenario needs at least one [[vehicle]] or [[flow]]")
     return vehicles, flows
 
 
-def _check_route_file_ids(src: str, routes: str, ours: set[str], our_types: set[str] = frozenset()) -> None:
+def _check_route_file_ids(src: str, routes: str, ours: set[str]) -> None:
     """The user's route file must not redefine the run's vType ``av`` or reuse the scenario's ids."""
     types, demand = route_file_ids(routes)
     for own in ("av", "human"):
@@ -432,8 +432,6 @@ def _check_route_file_ids(src: str, routes: str, ours: set[str], our_types: set[
             raise InputError(src, "network.routes", routes, f"defines vType {own!r}, a type of the scenario's own vehicles")
     for vid in sorted(demand & ours):
         raise InputError(src, "network.routes", routes, f"reuses the id {vid!r} of a [[vehicle]] or [[flow]]")
-    for vid in sorted(types & our_types):
-        raise InputError(src, "network.routes", routes, f"defines vType {vid!r}, the id of a [[vtype]]")
 
 
 def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | None = None,
