@@ -11,6 +11,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from intersection_cosim.colors import HUMAN
+from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_INDEX, exit_arm
 from intersection_cosim.scenario.model import Scenario, VehicleSpec, VehicleType
@@ -37,17 +38,28 @@ def _write(root: ET.Element, path: Path) -> None:
     ET.ElementTree(root).write(path, encoding="UTF-8", xml_declaration=True)
 
 
+def av_limits(scn: Scenario) -> tuple[float, float]:
+    """[m/s^2] (accel, decel) of the vType ``av``: the game's limits a_max and -a_min (the
+    ``[controller.game]`` table's, else ProblemSettings' defaults 2.5 and 4.0), so SUMO drives an
+    AV before the controller takes it over and after it hands it back as the game plans it."""
+    game = getattr(scn.controller_settings, "game", None)
+    game = game if isinstance(game, ProblemSettings) else ProblemSettings()
+    return game.a_max, -game.a_min
+
+
 def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow_vehicles: list[dict]) -> None:
-    """vType ``av`` plus one ``<vehicle>`` per hand-placed and flow-generated vehicle, by depart.
+    """vType ``av`` (accel / decel: :func:`av_limits`) plus one ``<vehicle>`` per hand-placed and
+    flow-generated vehicle, by depart.
 
     Vehicles of the paper forms are placed on ``paths`` (the generated net's movement paths);
     those with a ``route`` (a ``[network] file`` net) carry their edges, lane and position.
     A ``[network] routes`` file is not copied: :func:`route_files` lists it beside this one.
     """
     m = scn.model
+    accel, decel = av_limits(scn)  # [m/s^2]
     root = ET.Element("routes")
     ET.SubElement(root, "vType", id="av", length=f"{m.vehicle_length:g}", width=f"{m.vehicle_width:g}",
-                  minGap="2.0", accel="2.6", decel="4.5", emergencyDecel="9.0", sigma="0",
+                  minGap="2.0", accel=f"{accel:g}", decel=f"{decel:g}", emergencyDecel="9.0", sigma="0",
                   maxSpeed=f"{m.v_max:g}", speedFactor="1", tau="1.0")
     used = {sumo_type(scn.vtype(v.vtype), v.driver) for v in scn.vehicles}
     used |= {sumo_type(scn.vtype(fv.get("vtype")), fv.get("driver", "av")) for fv in flow_vehicles}
@@ -95,8 +107,9 @@ def _scenario_vtype(root: ET.Element, scn: Scenario, vt: VehicleType, driver: st
     attrs = dict(id=sumo_type(vt, driver), length=f"{vt.length or m.vehicle_length:g}",
                  width=f"{vt.width or m.vehicle_width:g}", maxSpeed=f"{vt.max_speed or m.v_max:g}")
     if driver == "av":
-        attrs.update(minGap=f"{2.0 if vt.min_gap is None else vt.min_gap:g}", accel=f"{vt.accel or 2.6:g}",
-                     decel=f"{vt.decel or 4.5:g}", emergencyDecel=f"{max(9.0, vt.decel or 0.0):g}", sigma="0",
+        accel, decel = av_limits(scn)  # [m/s^2] the defaults of vType av
+        attrs.update(minGap=f"{2.0 if vt.min_gap is None else vt.min_gap:g}", accel=f"{vt.accel or accel:g}",
+                     decel=f"{vt.decel or decel:g}", emergencyDecel=f"{max(9.0, vt.decel or 0.0):g}", sigma="0",
                      speedFactor="1", tau="1.0")
     else:
         attrs.update(minGap=f"{h.min_gap if vt.min_gap is None else vt.min_gap:g}", accel=f"{vt.accel or h.accel:g}",
