@@ -40,6 +40,10 @@ class World:
     #   READY vehicle may take: ([m] free length from the lane's start to the rear of its last
     #   vehicle, [m/s] that vehicle's speed); (lane length, inf) if empty; a lane not in it is free
     human: np.ndarray | None = None  # [-] bool per vehicle: a human driver (SUMO drives it; never a player); None: none
+    length: np.ndarray | None = None  # [m] per vehicle, bumper to bumper (its vType's); None: ModelSettings.vehicle_length
+    width: np.ndarray | None = None  # [m] per vehicle (its vType's); None: ModelSettings.vehicle_width
+    accel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's strongest acceleration; None: no own limit
+    decel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's braking (> 0); None: no own limit
 
     def subset(self, keep: list[int]) -> "World":
         """The World of the vehicles at indices ``keep`` (in that order): every per-vehicle array
@@ -64,6 +68,25 @@ class World:
     def is_human(self, k: int) -> bool:
         """Whether vehicle k is a human driver (observed and predicted, never commanded)."""
         return self.human is not None and bool(self.human[k])
+
+    def lengths(self, default: float) -> np.ndarray:
+        """[m] (n,) every vehicle's length, ``default`` [m] where the World carries none."""
+        return np.full(len(self.ids), float(default)) if self.length is None else self.length
+
+    def widths(self, default: float) -> np.ndarray:
+        """[m] (n,) every vehicle's width, ``default`` [m] where the World carries none."""
+        return np.full(len(self.ids), float(default)) if self.width is None else self.width
+
+    def length_of(self, k: int, default: float) -> float:
+        """[m] vehicle k's length (``default`` [m] when the World carries none)."""
+        return float(default) if self.length is None else float(self.length[k])
+
+    def accel_limits(self, k: int, a_min: float, a_max: float) -> tuple[float, float]:
+        """[m/s^2] (lowest, highest) acceleration vehicle k may plan: the model's [a_min, a_max]
+        narrowed by its own vType's decel and accel where the World carries them."""
+        lo = a_min if self.decel is None else max(a_min, -float(self.decel[k]))
+        hi = a_max if self.accel is None else min(a_max, float(self.accel[k]))
+        return lo, hi
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -94,6 +117,14 @@ class ControlContext:
     control_period: float  # [s]
     settings: object  # the controller's validated [controller.*] settings (None: its defaults)
     etm: bool  # event-triggered mechanism on
+    bodies: tuple[tuple[float, float], ...] = ()  # [m] (length, width) of each of the run's vehicle
+    #                                               types ((): every vehicle has ModelSettings' body)
+
+    @property
+    def touch_width(self) -> float:
+        """[m] centre lines closer than this may carry touching bodies: the widest vehicle type's
+        width (at least ModelSettings.vehicle_width); which paths conflict is decided with it."""
+        return max([self.model.vehicle_width] + [w for _, w in self.bodies])
 
     @property
     def paths(self) -> Mapping[str, MovementPath]:

@@ -34,21 +34,22 @@ def exit_room_caps(world: World, movements: Movements, options: Mapping[str, str
     [m/s^2], or has passed it).
 
     ``options``: the exit lane each vehicle takes (its path's own if absent); ``length`` [m] the
-    vehicle length, ``min_gap`` [m] the standstill gap it needs behind the last vehicle,
+    vehicle length where the World carries none (else each vehicle's own), ``min_gap`` [m] the
+    standstill gap it needs behind the last vehicle,
     ``period`` [s] the control period. A vehicle inside the junction claims room on its exit lane
     only while it is slower than ``standing`` [m/s] (one that drives on will be on the lane, and
     in ``World.exit_free``, before the held one could enter).
     """
     if not world.exit_free:
         return {}
-    need = length + min_gap  # [m] room one vehicle takes on its exit lane
+    need = world.lengths(length) + min_gap  # [m] room each vehicle takes on its exit lane
     taken: dict[str, float] = {}  # [m] per exit lane, claimed by vehicles in or let into the junction
     ready = []
     for k, pid in enumerate(world.path_ids):
         path = movements.paths[pid]
         lane = exit_lane_id(movements, pid, options.get(world.ids[k], path.exit_lane))
         if world.role[k] == "passing" and float(world.v[k]) < standing:
-            taken[lane] = taken.get(lane, 0.0) + need
+            taken[lane] = taken.get(lane, 0.0) + float(need[k])
         elif world.role[k] == "ready" and lane in world.exit_free:
             ready.append((path.s_stop - float(world.s[k]), world.ids[k], k, lane, path.s_stop))
     caps = {}
@@ -56,8 +57,8 @@ def exit_room_caps(world: World, movements: Movements, options: Mapping[str, str
         free, v_last = world.exit_free[lane]  # [m], [m/s]
         # the room there will be when it reaches its stop line, the last vehicle driving on as now
         room = free + min(v_last, 1e6) * to_stop / max(float(world.v[k]), 0.5)
-        if room - taken.get(lane, 0.0) >= need:
-            taken[lane] = taken.get(lane, 0.0) + need
+        if room - taken.get(lane, 0.0) >= float(need[k]):
+            taken[lane] = taken.get(lane, 0.0) + float(need[k])
             continue
         cap = _hold(float(world.s[k]), float(world.v[k]), s_stop, margin, comfort, a_min, period)
         if cap is not None:

@@ -119,7 +119,9 @@ class GameController:
         game = self.settings.game
         self.ctx, self.model, self.paths = context, context.model, context.paths
         self.table = movement_conflict_table(context.movements, context.model.vehicle_width,
-                                             context.model.vehicle_length)
+                                             context.model.vehicle_length, context.touch_width)
+        if context.bodies:  # the areas other bodies sweep, built before the first step needs them
+            self.table.warm(context.bodies)
         shift = max(1, int(round(context.control_period / game.dt)))
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt, game.a_max, context.model.v_max)
         lane_costs = LaneChangeCosts(context.movements, context.model)

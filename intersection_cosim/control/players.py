@@ -1,6 +1,9 @@
 """A controlled vehicle as a player of a game or a solo problem: its state, kappa, desired speed,
-the predicted trajectory of its leader (J_log, paper Eqs. 15-18) and those of the human drivers it
-crosses in a triggered pair (J_lat, Eqs. 19-22: non-players, their forecasts fixed).
+its body length and the predicted trajectory and body length of its leader (J_log, paper Eqs.
+15-18: the gap is to the leader's rear, so a bus ahead is 12 m long, not the model's 4.5 m), its
+vType's accel and decel, which narrow the accelerations it may plan (games/objective.py), and the
+forecasts of the human drivers it crosses in a triggered pair (J_lat, Eqs. 19-22: non-players,
+their forecasts fixed).
 
 The leader's trajectory is its previous plan shifted by one period when it is controlled,
 constant speed otherwise. The leader does not care about its follower (its cost has no term for
@@ -47,12 +50,16 @@ def player(world: World, k: int, option: str, relations: Relations, memory: Plan
     """Vehicle k taking exit lane ``option``; its leader enters as a fixed trajectory unless the
     leader is ``partner``, the other player of the same game (then it is an interaction)."""
     leader = relations.leader_of(k, option)
-    exo = None
+    exo, exo_length = None, None
     if leader is not None and leader.vehicle != partner:
         s_l, v_l = leader_trajectory(world, leader, memory)
         exo = (s_l + leader.offset, v_l)
+        exo_length = None if world.length is None else float(world.length[leader.vehicle])
     return Player(s0=float(world.s[k]), v0=float(world.v[k]), kappa=float(world.kappa[k]),
                   v_max=desired_speed(world, k), name=world.ids[k], leader=exo,
+                  length=None if world.length is None else float(world.length[k]), leader_length=exo_length,
+                  a_max=None if world.accel is None else float(world.accel[k]),
+                  a_min=None if world.decel is None else -float(world.decel[k]),
                   crossers=human_crossers(world, k, option, relations, memory))
 
 

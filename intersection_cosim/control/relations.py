@@ -193,19 +193,21 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
                          pairs=(i[keep], j[keep]))
     s_now = (world.s[k_of[risk.i]], world.s[k_of[risk.j]])
     d = (risk.s_cp_i - s_now[0], risk.s_cp_j - s_now[1])
-    leaders = _leaders(risk, d, k_of, model.conflict_clearance)
-    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, world.human)
+    bodies = (world.lengths(model.vehicle_length), world.widths(model.vehicle_width))  # [m] per World index
+    leaders = _leaders(risk, d, k_of, model.conflict_clearance, bodies[0])
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.human)
     return leaders, lateral
 
 
-def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
+def _leaders(risk, d, k_of: np.ndarray, clear: float, length: np.ndarray) -> dict[int, Leader]:
     """Each follower row's nearest leader among the ETM's leader-follower pairs (the first such
     pair in the ETM's order on equal gaps), keyed in the order the followers first appear.
 
-    A following pair whose leader has left the shared stretch (more than ``clear`` [m] past its
-    end) gives no leader."""
+    A following pair whose leader has left the shared stretch (more than ``clear`` [m], or the
+    longer vehicle's ``length`` [m] per World index, past its end) gives no leader."""
     d_i, d_j = d
-    gone = (np.minimum(d_i, d_j) < -clear) & (risk.kind != KIND_CONFLUENCE)
+    clear_m = np.maximum(clear, np.maximum(length[k_of[risk.i]], length[k_of[risk.j]]))  # [m] per pair
+    gone = (np.minimum(d_i, d_j) < -clear_m) & (risk.kind != KIND_CONFLUENCE)
     m = np.flatnonzero(risk.leader_follower & ~gone)
     if len(m) == 0:
         return {}
@@ -218,7 +220,7 @@ def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
     # two paths from one approach lane that part (s_cp = end of the shared stretch, where the
     # centre lines are a width apart): once the leader's rear is past it, the follower may draw
     # level on its own branch (Case 2's V3 beside V4)
-    until = np.where(risk.kind[m] == KIND_FOLLOWING, s_cp_l + clear, math.inf)  # [m]
+    until = np.where(risk.kind[m] == KIND_FOLLOWING, s_cp_l + clear_m[m], math.inf)  # [m]
     by_gap = np.lexsort((np.arange(len(m)), gap, follow))  # per follower: smallest gap, then first
     sorted_follow = follow[by_gap]
     firsts = by_gap[np.concatenate(([True], sorted_follow[1:] != sorted_follow[:-1]))]  # by follower
@@ -229,8 +231,31 @@ def _leaders(risk, d, k_of: np.ndarray, clear: float) -> dict[int, Leader]:
         follow[firsts], k_of[lead[firsts]], offset, gap[firsts], until[firsts])}
 
 
+def _zones(table: ConflictTable, p: tuple[np.ndarray, np.ndarray], s_cp: tuple[np.ndarray, np.ndarray],
+           cross: np.ndarray, k: tuple[np.ndarray, np.ndarray], bodies: tuple[np.ndarray, np.ndarray]):
+    """[m] ((in, out) on i's path, (in, out) on j's path) per lateral pair: for cross pairs the
+    conflict table's body-overlap zone of the two vehicles' own bodies (``bodies``: per World
+    index, length and width [m]; the table's arrays where both have the table's body), for
+    confluence pairs the point plus a length (the wider body's half width either side)."""
+    (p_i, p_j), (s_i, s_j), (k_i, k_j) = p, s_cp, k
+    length, width = bodies
+    wide = np.maximum(width[k_i], width[k_j])  # [m]
+    conf_i, conf_j = point_zone(s_i, length[k_i], wide), point_zone(s_j, length[k_j], wide)
+    zone_i = [np.where(cross, table.zone_in[p_i, p_j], conf_i[0]), np.where(cross, table.zone_out[p_i, p_j], conf_i[1])]
+    zone_j = [np.where(cross, table.zone_in[p_j, p_i], conf_j[0]), np.where(cross, table.zone_out[p_j, p_i], conf_j[1])]
+    own = (length[k_i] == table.body[0]) & (width[k_i] == table.body[1]) & \
+        (length[k_j] == table.body[0]) & (width[k_j] == table.body[1])
+    for m in np.flatnonzero(cross & ~own):  # a pair of other size classes: their own bodies' zones
+        bi = (float(length[k_i[m]]), float(width[k_i[m]]))
+        bj = (float(length[k_j[m]]), float(width[k_j[m]]))
+        zone_i[0][m], zone_i[1][m] = table.zone(int(p_i[m]), int(p_j[m]), bi, bj)
+        zone_j[0][m], zone_j[1][m] = table.zone(int(p_j[m]), int(p_i[m]), bj, bi)
+    return tuple(zone_i), tuple(zone_j)
+
+
 def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
-              pidx: np.ndarray, model: ModelSettings, etm: bool, human: np.ndarray | None) -> LateralPairs:
+              pidx: np.ndarray, model: ModelSettings, etm: bool,
+              bodies: tuple[np.ndarray, np.ndarray], human: np.ndarray | None) -> LateralPairs:
     """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
     whose two vehicles have not cleared the crossing (in the ETM's order). ``human``: bool per
     World vehicle, a human driver (None: none)."""
@@ -244,10 +269,7 @@ def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: Conflic
     s_i, s_j = risk.s_cp_i[m], risk.s_cp_j[m]  # [m]
     cross = risk.kind[m] == KIND_CROSS
     p_i, p_j = pidx[ri], pidx[rj]
-    length, width = model.vehicle_length, model.vehicle_width
-    conf_i, conf_j = point_zone(s_i, length, width), point_zone(s_j, length, width)
-    zone_i = (np.where(cross, table.zone_in[p_i, p_j], conf_i[0]), np.where(cross, table.zone_out[p_i, p_j], conf_i[1]))
-    zone_j = (np.where(cross, table.zone_in[p_j, p_i], conf_j[0]), np.where(cross, table.zone_out[p_j, p_i], conf_j[1]))
+    zone_i, zone_j = _zones(table, (p_i, p_j), (s_i, s_j), cross, (k_of[ri], k_of[rj]), bodies)
     # one of them has cleared the crossing: dropped. A vehicle that has left the junction (front
     # past its exit, handed back to SUMO) may still have its rear in the crossing: guarded, no game
     kept = ~((s_now[0][m] > zone_i[1]) | (s_now[1][m] > zone_j[1]))

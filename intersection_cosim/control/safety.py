@@ -256,7 +256,8 @@ class SafetyFilter:
             vid = world.ids[k]
             if vid not in decisions.accel or not chosen[r]:
                 continue
-            gap = lead.gap - self.model.vehicle_length - st.safety_margin  # [m] bumper to bumper, less margin
+            length = world.length_of(lead.vehicle, self.model.vehicle_length)  # [m] the leader's body
+            gap = lead.gap - length - st.safety_margin  # [m] bumper to bumper, less margin
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self.problem.a_min, self.period)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k])) / self.period)
         return cap

@@ -154,13 +154,15 @@ class SoloPlanner:
         off_plan = abs(plan.speeds[0] - float(world.v[k])) > OFF_PLAN_SPEED and vid not in held_before
         if off_plan or plan.speeds.max() > v_cap + 1e-6:
             return None
-        if player_now.leader is not None and self._leader_moved(plan, last, player_now.leader):
+        if player_now.leader is not None and self._leader_moved(plan, last, player_now.leader,
+                                                                 player_now.leader_length):
             return None
         self._last[vid] = _LastSolve(last.age + 1, option, last.leader)
         return self.memory.from_state(world, k, plan.accelerations)
 
-    def _leader_moved(self, plan: Plan, last: _LastSolve, leader_now: tuple) -> bool:
-        """Whether the leader's prediction moved since the solve where it matters to ``plan``."""
+    def _leader_moved(self, plan: Plan, last: _LastSolve, leader_now: tuple, length: float | None = None) -> bool:
+        """Whether the leader's prediction moved since the solve where it matters to ``plan``
+        (``length`` [m]: the leader's body, None: the model's)."""
         lag = (last.age + 1) * self.memory.shift  # [steps] since the solve
         s_then, v_then = last.leader
         s_now, v_now = leader_now
@@ -172,13 +174,14 @@ class SoloPlanner:
         # a moved prediction matters only where it enters the cost: J_log is zero along a plan
         # that is never faster than the leader and never overlaps it, under the old prediction
         # (so the plan did not answer it) and the new one (so it need not)
-        return moved and not (self._leader_inactive(plan, s_then[lag:], v_then[lag:])
-                              and self._leader_inactive(plan, s_now, v_now))
+        return moved and not (self._leader_inactive(plan, s_then[lag:], v_then[lag:], length)
+                              and self._leader_inactive(plan, s_now, v_now, length))
 
-    def _leader_inactive(self, plan: Plan, s_lead: np.ndarray, v_lead: np.ndarray) -> bool:
+    def _leader_inactive(self, plan: Plan, s_lead: np.ndarray, v_lead: np.ndarray, length: float | None = None) -> bool:
         """True when J_log (Eqs. 15-18) is zero along ``plan`` against a leader predicted at
         ``s_lead`` (follower frame, front) [m] and ``v_lead`` [m/s] over the plan's first steps:
         the follower is never faster than the leader (TTC_log infinite) and never overlaps it."""
         n = len(s_lead)
         v, s = plan.speeds[1:n + 1], plan.positions[1:n + 1]
-        return bool(np.all(v <= v_lead) and np.all(s_lead - self.model.vehicle_length - s >= 0.0))
+        body = self.model.vehicle_length if length is None else length  # [m]
+        return bool(np.all(v <= v_lead) and np.all(s_lead - body - s >= 0.0))

@@ -11,9 +11,11 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from intersection_cosim.colors import HUMAN
+from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_INDEX, exit_arm
-from intersection_cosim.scenario.model import Scenario, VehicleSpec
+from intersection_cosim.scenario.model import Scenario, VehicleSpec, VehicleType
+from intersection_cosim.scenario.vtypes import sumo_type
 
 ROUTE_FILE = "scenario.rou.xml"
 SUMOCFG_FILE = "scenario.sumocfg"
@@ -36,24 +38,45 @@ def _write(root: ET.Element, path: Path) -> None:
     ET.ElementTree(root).write(path, encoding="UTF-8", xml_declaration=True)
 
 
+def av_limits(scn: Scenario) -> tuple[float, float]:
+    """[m/s^2] (accel, decel) of the vType ``av``: the game's limits a_max and -a_min (the
+    ``[controller.game]`` table's, else ProblemSettings' defaults 2.5 and 4.0), so SUMO drives an
+    AV before the controller takes it over and after it hands it back as the game plans it."""
+    game = getattr(scn.controller_settings, "game", None)
+    game = game if isinstance(game, ProblemSettings) else ProblemSettings()
+    return game.a_max, -game.a_min
+
+
 def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow_vehicles: list[dict]) -> None:
-    """vType ``av`` plus one ``<vehicle>`` per hand-placed and flow-generated vehicle, by depart.
+    """vType ``av`` (accel / decel: :func:`av_limits`) plus one ``<vehicle>`` per hand-placed and
+    flow-generated vehicle, by depart.
 
     Vehicles of the paper forms are placed on ``paths`` (the generated net's movement paths);
     those with a ``route`` (a ``[network] file`` net) carry their edges, lane and position.
     A ``[network] routes`` file is not copied: :func:`route_files` lists it beside this one.
     """
     m = scn.model
+    accel, decel = av_limits(scn)  # [m/s^2]
     root = ET.Element("routes")
     ET.SubElement(root, "vType", id="av", length=f"{m.vehicle_length:g}", width=f"{m.vehicle_width:g}",
-                  minGap="2.0", accel="2.6", decel="4.5", emergencyDecel="9.0", sigma="0",
+                  minGap="2.0", accel=f"{accel:g}", decel=f"{decel:g}", emergencyDecel="9.0", sigma="0",
                   maxSpeed=f"{m.v_max:g}", speedFactor="1", tau="1.0")
-    if any(v.driver == "human" for v in scn.vehicles) or any(fv.get("driver") == "human" for fv in flow_vehicles):
+    used = {sumo_type(scn.vtype(v.vtype), v.driver) for v in scn.vehicles}
+    used |= {sumo_type(scn.vtype(fv.get("vtype")), fv.get("driver", "av")) for fv in flow_vehicles}
+    if "human" in used:
         _human_vtype(root, scn)
+    for vt in scn.vtypes:
+        for driver in ("av", "human"):
+            if not vt.from_routes and sumo_type(vt, driver) in used and (vt.driver == "av" or driver == "human"):
+                _scenario_vtype(root, scn, vt, driver)
     entries = [_placed_entry(v) if v.route is not None else _paper_placed_entry(scn, v, paths)
                for v in scn.vehicles]
     entries += [_flow_entry(fv) if fv.get("route") is not None else _paper_flow_entry(scn, fv, paths)
                 for fv in flow_vehicles]
+    types = {v.id: sumo_type(scn.vtype(v.vtype), v.driver) for v in scn.vehicles}
+    types |= {fv["id"]: sumo_type(scn.vtype(fv.get("vtype")), fv.get("driver", "av")) for fv in flow_vehicles}
+    for entry in entries:
+        entry[2]["type"] = types[entry[1]]
     entries.sort(key=lambda e: (e[0], e[1]))
     for _, _, attrs, edges in entries:
         el = ET.SubElement(root, "vehicle", attrs)
@@ -74,6 +97,31 @@ def _human_vtype(root: ET.Element, scn: Scenario) -> None:
         attrs["sigma"] = f"{h.sigma:g}"
     else:
         attrs["delta"] = f"{h.delta:g}"
+    ET.SubElement(root, "vType", attrs)
+
+
+def _scenario_vtype(root: ET.Element, scn: Scenario, vt: VehicleType, driver: str) -> None:
+    """The SUMO vType of [[vtype]] ``vt`` for vehicles of ``driver``: its body, limits and colour;
+    an AV's driving attributes as vType ``av``'s, a human's as vType ``human``'s ([human])."""
+    m, h = scn.model, scn.human
+    attrs = dict(id=sumo_type(vt, driver), length=f"{vt.length or m.vehicle_length:g}",
+                 width=f"{vt.width or m.vehicle_width:g}", maxSpeed=f"{vt.max_speed or m.v_max:g}")
+    if driver == "av":
+        accel, decel = av_limits(scn)  # [m/s^2] the defaults of vType av
+        attrs.update(minGap=f"{2.0 if vt.min_gap is None else vt.min_gap:g}", accel=f"{vt.accel or accel:g}",
+                     decel=f"{vt.decel or decel:g}", emergencyDecel=f"{max(9.0, vt.decel or 0.0):g}", sigma="0",
+                     speedFactor="1", tau="1.0")
+    else:
+        attrs.update(minGap=f"{h.min_gap if vt.min_gap is None else vt.min_gap:g}", accel=f"{vt.accel or h.accel:g}",
+                     decel=f"{vt.decel or h.decel:g}", emergencyDecel=f"{max(h.emergency_decel, vt.decel or 0.0):g}",
+                     speedFactor=f"{h.speed_factor:g}", tau=f"{h.tau:g}", carFollowModel=h.model)
+        attrs.update({"sigma": f"{h.sigma:g}"} if h.model == "Krauss" else {"delta": f"{h.delta:g}"})
+        if scn.network.generated:
+            attrs.update(lcSpeedGain="0", lcKeepRight="0")
+    if vt.color:
+        attrs["color"] = ",".join(str(c) for c in vt.color)
+    elif driver == "human":
+        attrs["color"] = ",".join(str(c) for c in HUMAN)
     ET.SubElement(root, "vType", attrs)
 
 
@@ -120,8 +168,15 @@ def _flow_entry(fv: dict) -> RouteEntry:
 
 def route_files(scn: Scenario) -> list[str]:
     """The route files SUMO loads for a run of ``scn``: the run's own (ROUTE_FILE, relative to the
-    run folder), then the user's ``[network] routes`` file (absolute), if any."""
-    return [ROUTE_FILE] + ([scn.network.routes] if scn.network.routes is not None else [])
+    run folder), then the user's ``[network] routes`` file (absolute), if any. When a [[vehicle]]
+    or [[flow]] names a vType of the user's file, that file comes first: SUMO must read the vType
+    before the first vehicle of it."""
+    if scn.network.routes is None:
+        return [ROUTE_FILE]
+    theirs = {vt.id for vt in scn.vtypes if vt.from_routes}
+    if any(spec.vtype in theirs for spec in (*scn.vehicles, *scn.flows)):
+        return [scn.network.routes, ROUTE_FILE]
+    return [ROUTE_FILE, scn.network.routes]
 
 
 def run_output_options(folder: Path) -> list[str]:

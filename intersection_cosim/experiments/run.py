@@ -44,6 +44,7 @@ from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLU
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.sumo_outputs import read_collisions, read_ssm, read_tripinfo
 from intersection_cosim.scenario.load import default_exit_lane, draw_drivers, generate_flow_vehicles
+from intersection_cosim.scenario.vtypes import sumo_type
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
 from intersection_cosim.v2x import Channel
@@ -97,7 +98,8 @@ def resolved_settings(scn: Scenario) -> dict:
     return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "human": to_dict(scn.human),
             "controller": to_dict(scn.controller), "model": to_dict(scn.model), "v2x": to_dict(scn.v2x),
             "controller_settings": to_dict(scn.controller_settings)
-            if dataclasses.is_dataclass(scn.controller_settings) else None}
+            if dataclasses.is_dataclass(scn.controller_settings) else None,
+            "vtypes": [to_dict(vt) for vt in scn.vtypes]}
 
 
 def versions() -> dict[str, str]:
@@ -165,6 +167,7 @@ class _Simulated(NamedTuple):
     final_paths: dict  # vehicle id -> the path it drove
     exit_lanes: dict  # vehicle id -> the exit lane it took
     v2x_counts: dict | None = None  # the V2X channel's message counts (None: perfect information)
+    bodies: dict | None = None  # vehicle id -> (length, width) [m] of its SUMO vType (None: not read)
 
 
 class _Tables(NamedTuple):
@@ -237,30 +240,42 @@ def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -
     """The keyword arguments of each vehicle's ``sim.sumo.VehicleInfo``, by id: the scenario's
     vehicles, then those of its flows. On a net file a vehicle has no intended path: the adapter
     picks it from the vehicle's lane and route when it reaches a managed junction. A human driver
-    is never controlled, whatever the controller."""
+    is never controlled, whatever the controller. A vehicle of a [[vtype]] with a ``max_speed``
+    [m/s] and no ``desired_speed`` of its own desires that speed."""
     specs: dict[str, dict] = {}
     for v in scn.vehicles:
+        vt = scn.vtype(v.vtype)
+        typed = dict(vtype=sumo_type(vt, v.driver), desired_speed=_desired(v.desired_speed, vt))
         if v.route is not None:
             specs[v.id] = dict(approach="", lane="", movement="", kappa=v.kappa, intended_path=None,
-                               controlled=controlled and v.driver == "av", desired_speed=v.desired_speed,
-                               route=frozenset(v.route), driver=v.driver)
+                               controlled=controlled and v.driver == "av",
+                               route=frozenset(v.route), driver=v.driver, **typed)
             continue
         specs[v.id] = dict(approach=v.approach, lane=v.lane, movement=v.movement, kappa=v.kappa,
                            intended_path=v.path_id, controlled=controlled and v.driver == "av", driver=v.driver,
                            exit_lane=v.exit_lane, exit_fixed=v.exit_lane is not None,
-                           start_s=v.s0 if v.in_junction else None, desired_speed=v.desired_speed)
+                           start_s=v.s0 if v.in_junction else None, **typed)
     for fv in flow_vehicles:
         driver = fv.get("driver", "av")
+        vt = scn.vtype(fv.get("vtype"))
+        typed = dict(vtype=sumo_type(vt, driver), desired_speed=_desired(None, vt))
         if fv.get("route") is not None:
             specs[fv["id"]] = dict(approach="", lane="", movement="", kappa=fv["kappa"], intended_path=None,
                                    controlled=controlled and driver == "av", route=frozenset(fv["route"]),
-                                   driver=driver)
+                                   driver=driver, **typed)
             continue
         pid = str(PathId(fv["approach"], fv["lane"], fv["movement"], default_exit_lane(fv["lane"], fv["movement"])))
         specs[fv["id"]] = dict(approach=fv["approach"], lane=fv["lane"], movement=fv["movement"],
                                kappa=fv["kappa"], intended_path=pid, controlled=controlled and driver == "av",
-                               driver=driver)
+                               driver=driver, **typed)
     return specs
+
+
+def _desired(own: float | None, vt) -> float | None:
+    """[m/s] a vehicle's desired speed: its own, else its vtype's max_speed (None: the model's v_max)."""
+    if own is not None or vt is None or vt.max_speed is None:
+        return own
+    return vt.max_speed
 
 
 def _period_steps(scn: Scenario) -> int:
@@ -284,11 +299,13 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
 
     s, controller = scn.scenario, inputs.controller
     specs = _vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
-    infos = {vid: VehicleInfo(**spec, vtype=spec.get("driver", "av")) for vid, spec in specs.items()}
+    infos = {vid: VehicleInfo(**spec) for vid, spec in specs.items()}
     period_steps = _period_steps(scn)
+    m = scn.model
+    bodies = tuple(sorted({(vt.length or m.vehicle_length, vt.width or m.vehicle_width) for vt in scn.vtypes}))  # [m]
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
-                                    etm=scn.controller.etm))
+                                    etm=scn.controller.etm, bodies=bodies))
     scheduler = NetworkScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     if gui is not None and not scn.network.generated:  # look at the managed junction, not the origin
         gui = dataclasses.replace(gui, centre=junction_centre(inputs.net, scn.network.junctions[0]))
@@ -318,7 +335,8 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
         sim.close()
         if view is not None:
             view.close()
-    return _Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None)
+    return _Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None,
+                      {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None)
 
 
 def _signals_off(scn: Scenario, controller: Controller) -> bool:
@@ -390,9 +408,10 @@ def _result_tables(scn: Scenario, folder: Path, inputs: _Inputs, simulated: _Sim
     collisions = read_collisions(folder / COLLISIONS_FILE)
     vehicles = vehicle_table(_with_movements(simulated.infos, simulated.final_paths, inputs.paths), tripinfo,
                              simulated.exit_lanes, collisions)
-    pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, scn.model.vehicle_width),
+    touch = max([scn.model.vehicle_width] + [vt.width for vt in scn.vtypes if vt.width is not None])  # [m]
+    pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, touch),
                        scn.model, ssm, simulated.records.game_steps,
-                       {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()})
+                       {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()}, simulated.bodies)
     return _Tables(traj, steps, tripinfo, collisions, vehicles, pairs)
 
 

@@ -260,7 +260,7 @@ def _order_starts(game: EquilibriumSolve) -> list[list[Plan]]:
         for p in range(game.n):
             obj = game.objs[p]
             if p == first:
-                a = np.full(game.N, gs.problem.a_max)
+                a = np.full(game.N, obj.gs.problem.a_max)
             elif p in partners:
                 a = np.full(game.N, -gs.problem.comfort_brake)
             else:

@@ -30,6 +30,7 @@ search of the best response make up for what it ignores.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 
@@ -68,6 +69,21 @@ def _quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float
     return Q
 
 
+def own_limits(gs: GameSettings, pl: Player) -> GameSettings:
+    """``gs`` with [a_min, a_max] narrowed to player ``pl``'s own limits (its vType's decel and
+    accel, :attr:`Player.a_min` / :attr:`Player.a_max`); ``gs`` itself when they do not narrow it."""
+    lo = gs.problem.a_min if pl.a_min is None else max(gs.problem.a_min, float(pl.a_min))  # [m/s^2]
+    hi = gs.problem.a_max if pl.a_max is None else min(gs.problem.a_max, float(pl.a_max))  # [m/s^2]
+    if lo == gs.problem.a_min and hi == gs.problem.a_max:
+        return gs
+    return dataclasses.replace(gs, problem=dataclasses.replace(gs.problem, a_min=lo, a_max=hi))
+
+
+def _length(length: float | None, ms: ModelSettings) -> float:
+    """[m] a vehicle's body length: its own, else ModelSettings.vehicle_length."""
+    return ms.vehicle_length if length is None else float(length)
+
+
 class PlayerObjective:
     """Player ``p``'s cost as a function of its own accelerations, the others' plans held fixed.
 
@@ -78,7 +94,9 @@ class PlayerObjective:
 
     def __init__(self, problem: Problem, p: int, gs: GameSettings, ms: ModelSettings):
         pl: Player = problem.players[p]
-        self.p, self.gs, self.ms = p, gs, ms
+        self.p, self.ms = p, ms
+        self.gs = own_limits(gs, pl)  # the game's settings, its U^i (Eq. 11) narrowed to the player's own limits
+        self.limited = self.gs is not gs  # [-] the player's bounds differ from the game's
         self.n, self.dt = gs.problem.steps, gs.problem.dt
         dt = self.dt
         self.hm = hm = horizon_matrices(self.n, dt)
@@ -98,6 +116,8 @@ class PlayerObjective:
         # lateral terms: (other, s_cp own, s_cp other); following terms where p follows: (leader, offset)
         self.lat_terms: list[tuple[int, float, float]] = []
         self.log_terms: list[tuple[int, float]] = []
+        # [m] each player's body (J_log's gap to a leading player is bumper to bumper, Eq. 16)
+        self._lengths = [_length(q.length, ms) for q in problem.players]
         for it in problem.interactions:
             if it.lateral and it.i == p:
                 self.lat_terms.append((it.j, it.s_cp_i, it.s_cp_j))
@@ -111,7 +131,7 @@ class PlayerObjective:
             if s_l.shape != (self.n,) or v_l.shape != (self.n,):
                 raise ValueError(f"player {p}: leader trajectory must have {self.n} steps")
             self.log_terms.append((EXOGENOUS, 0.0))
-            self._exo = (s_l - ms.vehicle_length, v_l)
+            self._exo = (s_l - _length(pl.leader_length, ms), v_l)
         # crossing non-players (Player.crossers): their J_lat data is fixed, computed once
         self._lat_fixed = [self._lateral_data(scp, scp_q, s_q, v_q) for scp, scp_q, s_q, v_q in pl.crossers]
         if self.w_lat <= 0.0:
@@ -143,7 +163,7 @@ class PlayerObjective:
             if q == EXOGENOUS:
                 self._log.append(self._exo)
                 continue
-            self._log.append((plans[q].positions[1:] + (offset - self.ms.vehicle_length),
+            self._log.append((plans[q].positions[1:] + (offset - self._lengths[q]),
                               plans[q].speeds[1:]))
 
     def _lateral_data(self, scp: float, scp_q: float, s_q: np.ndarray, v_q: np.ndarray) -> tuple:

@@ -44,6 +44,12 @@ class Player:
     #: the leader's cost has no term for its follower, so this is part of the player's own
     #: problem, not a game. Kept by :meth:`Problem.decoupled`.
     leader: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    length: float | None = None  # [m] its body, bumper to bumper: its gap to a follower (None: ModelSettings.vehicle_length)
+    leader_length: float | None = None  # [m] the body of ``leader`` (None: ModelSettings.vehicle_length)
+    a_max: float | None = None  # [m/s^2] its own strongest acceleration (its vType's accel); the plan's
+    #                             upper bound is the smaller of it and ProblemSettings.a_max (None: that)
+    a_min: float | None = None  # [m/s^2] its own hardest planned braking (< 0, minus its vType's decel);
+    #                             the plan's lower bound is the larger of it and ProblemSettings.a_min
     #: Crossing vehicles that are not players (human drivers): per crossing (s_cp own [m], s_cp on
     #: the other's path [m], its predicted positions s_1..s_N [m] in its own path, its speeds
     #: v_1..v_N [m/s]). Each enters the player's J_lat (Eqs. 19-22) like a cross interaction with
@@ -61,8 +67,8 @@ class Interaction:
       J_lat = 1 / (TTC_lat^2 + eps) (Eqs. 19-22) while neither has passed its conflict point by
       more than ``ModelSettings.conflict_clearance``.
     * ``following``: ``i`` follows the leading vehicle ``j`` on the same lane. In i's path
-      coordinates the leader is at ``s_j + offset`` [m]; the gap is that minus s_i minus the vehicle
-      length. Only the follower carries J_log (Eqs. 15-18).
+      coordinates the leader is at ``s_j + offset`` [m]; the gap is that minus s_i minus the
+      leader's length (``Player.length``). Only the follower carries J_log (Eqs. 15-18).
 
     Build with :meth:`cross`, :meth:`confluence` or :meth:`following`.
     """

@@ -23,6 +23,7 @@ the optimum. A start plan that overlaps a leader is first moved behind it (see
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Mapping, NamedTuple, Sequence
@@ -96,8 +97,11 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
     ``hessian``: a model Hessian computed near ``a0`` to use in the first iteration instead of
     a fresh one (the gradient is always exact; the caller decides when the curvature is still
     representative, see ``SolverSettings.hessian_refresh``). Raises :class:`SolverFailure` when
-    OSQP does not solve a QP or a value is not finite.
+    OSQP does not solve a QP or a value is not finite. A player with limits of its own
+    (``obj.limited``) plans within them.
     """
+    if obj.limited:
+        gs = dataclasses.replace(gs, problem=obj.gs.problem)
     a = obj.keep_behind(np.array(a0, dtype=float))
     fresh = None
     if hessian is None or not obj.coupled:
@@ -240,7 +244,7 @@ def initial_accelerations(obj: PlayerObjective, warm, gs: GameSettings) -> np.nd
         a = np.asarray(warm.accelerations if isinstance(warm, Plan) else warm, dtype=float)
         if a.shape != (obj.n,):
             a = np.resize(a, obj.n) if a.size else np.zeros(obj.n)
-    return project_accelerations(a, obj.v0, obj.v_cap, gs)
+    return project_accelerations(a, obj.v0, obj.v_cap, dataclasses.replace(gs, problem=obj.gs.problem) if obj.limited else gs)
 
 
 def best_response(problem: Problem, player_index: int,

@@ -193,14 +193,14 @@ class _LeaderIteration:
             Hr = H_LL + H_LF @ K + K.T @ H_LF.T + KH @ K
             Hr = 0.5 * (Hr + Hr.T)
             gr = gL + K.T @ gLF + (H_LF + KH) @ d0
-            np.maximum(aL - delta, gs.problem.a_min, out=l[:n])
-            np.minimum(aL + delta, gs.problem.a_max, out=u[:n])
+            np.maximum(aL - delta, self.objL.gs.problem.a_min, out=l[:n])
+            np.minimum(aL + delta, self.objL.gs.problem.a_max, out=u[:n])
             sol = self.wsL.solve(Hr, gr, aL, l, u, y0=self.y_duals)
             self.y_duals = None
             self.game.qp_count += 1
             if not sol.ok:
                 raise SolverFailure(f"OSQP (leader): {sol.status}")
-            y = np.minimum(np.maximum(sol.x, gs.problem.a_min), gs.problem.a_max)
+            y = np.minimum(np.maximum(sol.x, self.objL.gs.problem.a_min), self.objL.gs.problem.a_max)
             # the follower's QP at the new leader plan: does the active set still hold?
             dy = y - aL
             x_y = x0 + K @ dy
@@ -216,8 +216,8 @@ class _LeaderIteration:
         gs = self.gs
         for alpha in (1.0, 0.5, 0.25)[:1 + gs.solver.line_search_steps]:
             y_a = qp.y if alpha == 1.0 else aL + alpha * (qp.y - aL)
-            x_a = qp.x_y if alpha == 1.0 else np.clip(qp.x0 + alpha * (qp.x_y - qp.x0), gs.problem.a_min,
-                                                      gs.problem.a_max)
+            x_a = qp.x_y if alpha == 1.0 else np.clip(qp.x0 + alpha * (qp.x_y - qp.x0), self.objF.gs.problem.a_min,
+                                                      self.objF.gs.problem.a_max)
             if self.leader_cost(y_a, x_a) < cL:
                 break
         else:
@@ -237,7 +237,7 @@ class _LeaderIteration:
         gs = self.gs
         aL, aF = plans[self.L].accelerations, plans[self.F].accelerations
         model = self.models(plans, follower)
-        sign = active_set(x_last, self.objF.v0, self.objF.v_cap, gs)
+        sign = active_set(x_last, self.objF.v0, self.objF.v_cap, self.objF.gs)
         for _attempt in range(gs.solver.stackelberg_attempts):
             qp = self.leader_qp(follower, sign, aL, aF, model, delta, box)
             sign = qp.sign
@@ -271,7 +271,7 @@ def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int,
         f_cost = out.cost
     it.objL.set_others(plans)
     cL = float(it.objL.cost(plans[L].accelerations))
-    follower = FollowerQP(n, it.objF.v0, it.objF.v_cap, gs)
+    follower = FollowerQP(n, it.objF.v0, it.objF.v_cap, it.objF.gs)
     delta = sv.trust_region
     l, u = np.empty(2 * n), np.empty(2 * n)
     l[n:], u[n:] = it.wsL.speed_rows(it.objL.v0, it.objL.v_cap, gs.problem.dt)

@@ -75,6 +75,7 @@ KIND_CODE = {name: code for code, name in enumerate(KIND_NAMES)}
 _CROSS_CANDIDATE = 0.75  # [m] sample pairs closer than this may hold a crossing of their segments
 _ZONE_STEP = 0.25  # [m] spacing of the front positions and body-outline samples of conflict_zone
 _ZONE_MARGIN = 0.2  # [m] an outline point this close to a swept-area grid point overlaps it
+_ZONE_MERGE = 0.05  # [m] swept-area points of other bodies than a table's own are merged on this grid
 
 
 @dataclass(frozen=True)
@@ -265,10 +266,19 @@ def _fronts(path: MovementPath, length: float) -> np.ndarray:
     return np.arange(path.s_stop - _ZONE_STEP, min(path.s_exit + length + _ZONE_STEP, path.length), _ZONE_STEP)
 
 
-def swept_area(path: MovementPath, length: float, width: float) -> cKDTree:
+def swept_area(path: MovementPath, length: float, width: float, merge: float | None = None) -> cKDTree:
     """KD-tree of a grid of points over the bodies on ``path`` at every front position through
-    the junction (``_ZONE_STEP`` apart): the area its vehicles sweep."""
-    return cKDTree(_body_points(path, _fronts(path, length), length, width, outline=False).reshape(-1, 2))
+    the junction (``_ZONE_STEP`` apart): the area its vehicles sweep. ``merge`` [m]: points are
+    snapped to a grid this fine and duplicates dropped (consecutive bodies overlap almost
+    wholly, so a 12 m body's area has ~50 times fewer distinct points; None: every point)."""
+    pts = _body_points(path, _fronts(path, length), length, width, outline=False).reshape(-1, 2)
+    if merge is not None:
+        cells = np.round(pts / merge).astype(np.int64)
+        cells -= cells.min(axis=0)
+        span = int(cells[:, 1].max()) + 1
+        keys = np.unique(cells[:, 0] * span + cells[:, 1])  # one integer per occupied cell
+        pts = (np.stack([keys // span, keys % span], 1) + np.round(pts.min(axis=0) / merge)) * merge
+    return cKDTree(pts)
 
 
 def point_zone(s_cp: float, length: float, width: float) -> tuple[float, float]:
@@ -302,6 +312,33 @@ def conflict_zone(a: MovementPath, b: MovementPath, length: float = 4.5, width: 
     return float(s_front[k[0]]), float(s_front[k[-1]])
 
 
+def _hits(a: MovementPath, s_front: np.ndarray, length: float, width: float, swept_b: cKDTree) -> np.ndarray:
+    """(S,) bool: whether the body on ``a`` at each front in ``s_front`` overlaps ``swept_b``."""
+    pts = _body_points(a, s_front, length, width, outline=True)
+    dist, _ = swept_b.query(pts.reshape(-1, 2), distance_upper_bound=_ZONE_MARGIN)
+    return (dist.reshape(pts.shape[:2]) < _ZONE_MARGIN).any(axis=1)
+
+
+def coarse_zone(a: MovementPath, length: float, width: float, swept_b: cKDTree,
+                stride: int = 8) -> tuple[float, float] | None:
+    """:func:`conflict_zone` of a body ``length`` x ``width`` [m] on ``a`` against ``swept_b``,
+    found coarse to fine: fronts ``stride`` samples apart first, then the first and last hit
+    refined at every sample around them (a full scan when the coarse one finds none). The same
+    zone as the full scan when the fronts that overlap are one stretch, as on a crossing."""
+    s_front = _fronts(a, length)
+    n = len(s_front)
+    coarse = np.flatnonzero(_hits(a, s_front[::stride], length, width, swept_b)) * stride
+    if coarse.size == 0:
+        hit = np.flatnonzero(_hits(a, s_front, length, width, swept_b))
+        return None if hit.size == 0 else (float(s_front[hit[0]]), float(s_front[hit[-1]]))
+    lo = max(0, int(coarse[0]) - stride + 1)
+    first = lo + int(np.argmax(_hits(a, s_front[lo:int(coarse[0]) + 1], length, width, swept_b)))
+    hi = min(n, int(coarse[-1]) + stride)
+    tail = _hits(a, s_front[int(coarse[-1]):hi], length, width, swept_b)
+    last = int(coarse[-1]) + int(np.flatnonzero(tail)[-1])
+    return float(s_front[first]), float(s_front[last])
+
+
 @dataclass(frozen=True)
 class ConflictTable:
     """Paths and their conflict points as arrays indexed by integer path index (hot-path lookup).
@@ -325,6 +362,41 @@ class ConflictTable:
     length: np.ndarray = field(repr=False)  # (P,) [m] total arc length of each path
     zone_in: np.ndarray = field(repr=False, default=None)  # (P, P) [m] cross pairs: see above
     zone_out: np.ndarray = field(repr=False, default=None)  # (P, P) [m]
+    body: tuple[float, float] = (4.5, 1.8)  # [m] (length, width) of the bodies zone_in / zone_out are for
+    paths: dict | None = field(repr=False, compare=False, default=None)  # path id -> MovementPath (other bodies' zones)
+    _other: dict = field(repr=False, compare=False, default_factory=dict)  # cache of :meth:`zone` for other bodies
+
+    def zone(self, p: int, q: int, body_p: tuple[float, float], body_q: tuple[float, float]) -> tuple[float, float]:
+        """[m] (zone_in, zone_out) of cross pair (p, q) for a body ``body_p`` (length, width [m])
+        on path p against the area bodies ``body_q`` sweep on path q: the table's own arrays for
+        its own body, else :func:`conflict_zone` of those bodies, built once per (pair, bodies)
+        and cached (one table per pair of size classes, filled as pairs of them meet)."""
+        if body_p == self.body and body_q == self.body:
+            return float(self.zone_in[p, q]), float(self.zone_out[p, q])
+        key = (p, q, body_p, body_q)
+        if key not in self._other:
+            swept_key = (q, body_q)
+            if swept_key not in self._other:
+                self._other[swept_key] = swept_area(self.paths[self.ids[q]], *body_q, merge=_ZONE_MERGE)
+            zone = coarse_zone(self.paths[self.ids[p]], *body_p, self._other[swept_key])
+            self._other[key] = zone if zone is not None else point_zone(float(self.s_a[p, q]), *body_p)
+        return self._other[key]
+
+    def warm(self, bodies, zones: bool = False) -> None:
+        """Build now, so that no control step pays for it, the areas that ``bodies`` ((length,
+        width) [m] each) sweep on every path of a cross pair (the costly part of :meth:`zone`,
+        ~20 ms each for a bus); with ``zones`` also every cross pair's zone for every ordered pair
+        of them (a few ms each; left to the first step that needs it otherwise)."""
+        bodies = sorted(set(bodies) | {self.body})
+        cross = np.argwhere(self.kind == KIND_CROSS)
+        for q in np.unique(cross[:, 1]):
+            for body in bodies:
+                if body != self.body and (int(q), body) not in self._other:
+                    self._other[(int(q), body)] = swept_area(self.paths[self.ids[q]], *body, merge=_ZONE_MERGE)
+        for p, q in cross if zones else ():
+            for body_p in bodies:
+                for body_q in bodies:
+                    self.zone(int(p), int(q), body_p, body_q)
 
     @classmethod
     def build(cls, paths: dict[str, MovementPath],
@@ -350,7 +422,8 @@ class ConflictTable:
                     zone = point_zone(cp.s_a, vehicle_length, vehicle_width)
                 zone_in[p, q], zone_out[p, q] = zone
         return cls(ids=ids, index=index, kind=kind, s_a=s_a, s_b=s_b, x=x, y=y,
-                   zone_in=zone_in, zone_out=zone_out,
+                   zone_in=zone_in, zone_out=zone_out, body=(float(vehicle_length), float(vehicle_width)),
+                   paths=dict(paths),
                    s_stop=np.array([paths[i].s_stop for i in ids]),
                    s_exit=np.array([paths[i].s_exit for i in ids]),
                    length=np.array([paths[i].length for i in ids]))
@@ -398,9 +471,13 @@ def movement_conflicts(movements: Movements, vehicle_width: float = 1.8) -> dict
 
 
 def movement_conflict_table(movements: Movements, vehicle_width: float = 1.8,
-                            vehicle_length: float = 4.5) -> ConflictTable:
-    """:class:`ConflictTable` of the movements, cached per (``movements.key``, width [m], length [m])."""
+                            vehicle_length: float = 4.5, touch_width: float | None = None) -> ConflictTable:
+    """:class:`ConflictTable` of the movements, cached per (``movements.key``, width [m], length [m],
+    touch width [m]). Its zones are for bodies ``vehicle_length`` x ``vehicle_width``; which
+    paths conflict is decided with centre lines ``touch_width`` apart (default ``vehicle_width``;
+    the widest vehicle type of a run, so two wide bodies on near paths are paired)."""
     width, length = float(vehicle_width), float(vehicle_length)
-    return _cached(("table", movements.key, width, length),
-                   lambda: ConflictTable.build(dict(movements.paths), movement_conflicts(movements, width),
+    touch = width if touch_width is None else float(touch_width)
+    return _cached(("table", movements.key, width, length) + ((touch,) if touch != width else ()),
+                   lambda: ConflictTable.build(dict(movements.paths), movement_conflicts(movements, touch),
                                                length, width))

@@ -44,8 +44,10 @@ def vehicle_table(infos: dict, tripinfo: pd.DataFrame, exit_lanes: dict[str, str
 
 
 def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSettings,
-                 zone_a: tuple[float, float] | None = None, zone_b: tuple[float, float] | None = None) -> float:
-    """[s] minimum TTC of one conflicting pair.
+                 zone_a: tuple[float, float] | None = None, zone_b: tuple[float, float] | None = None,
+                 lengths: tuple[float, float] | None = None) -> float:
+    """[s] minimum TTC of one conflicting pair (``lengths`` [m]: of ``a`` and ``b``, None: the
+    model's vehicle_length for both; a following gap is to the leader's rear).
 
     ``a`` and ``b`` are the two vehicles' trajectory rows (time, s, speed) on common times, with
     ``conflict`` oriented so that ``s_a`` belongs to ``a``. ``zone_a`` / ``zone_b`` are the arc
@@ -60,21 +62,24 @@ def pair_min_ttc(conflict, a: pd.DataFrame, b: pd.DataFrame, model: ModelSetting
     what the decision produced.
     """
     return min_ttc_arrays(conflict, a["s"].to_numpy(), a["speed"].to_numpy(), b["s"].to_numpy(),
-                          b["speed"].to_numpy(), model, zone_a, zone_b)
+                          b["speed"].to_numpy(), model, zone_a, zone_b, lengths)
 
 
 def min_ttc_arrays(conflict, sa: np.ndarray, va: np.ndarray, sb: np.ndarray, vb: np.ndarray,
                    model: ModelSettings, zone_a: tuple[float, float] | None = None,
-                   zone_b: tuple[float, float] | None = None) -> float:
+                   zone_b: tuple[float, float] | None = None,
+                   lengths: tuple[float, float] | None = None) -> float:
     """[s] :func:`pair_min_ttc` on arrays: arc lengths ``sa``, ``sb`` [m] and speeds ``va``,
-    ``vb`` [m/s] of the two vehicles at their common times."""
+    ``vb`` [m/s] of the two vehicles at their common times (``lengths`` [m] as there)."""
     if conflict.kind == "following":
         a_leads = sa >= sb
         s_lead, s_follow = np.where(a_leads, sa, sb), np.where(a_leads, sb, sa)
         v_lead, v_follow = np.where(a_leads, va, vb), np.where(a_leads, vb, va)
+        len_a, len_b = lengths if lengths is not None else (model.vehicle_length, model.vehicle_length)
+        len_lead = np.where(a_leads, len_a, len_b) if lengths is not None else model.vehicle_length  # [m]
         shared_end = min(conflict.s_a, conflict.s_b)
-        on_shared = (s_follow <= shared_end) & (s_lead - model.vehicle_length <= shared_end)
-        gap = s_lead - s_follow - model.vehicle_length
+        on_shared = (s_follow <= shared_end) & (s_lead - len_lead <= shared_end)
+        gap = s_lead - s_follow - len_lead
         ttc = np.asarray(longitudinal_ttc(gap, v_follow, v_lead), float)[on_shared]
     else:
         before = (sa < conflict.s_a) & (sb < conflict.s_b)
@@ -135,17 +140,23 @@ class _Zones:
         self.swept: dict[str, object] = {}
         self.zones: dict[tuple[str, str], tuple[float, float]] = {}
 
-    def zone(self, conflict) -> tuple[float, float] | None:
+    def zone(self, conflict, body_a: tuple[float, float] | None = None,
+             body_b: tuple[float, float] | None = None) -> tuple[float, float] | None:
         """[m] front arc lengths on ``conflict.path_a`` inside the crossing zone: the body-overlap
-        zone for a cross pair, the conflict point's occupancy (:func:`point_zone`) otherwise."""
-        key = (conflict.path_a, conflict.path_b)
+        zone for a cross pair, the conflict point's occupancy (:func:`point_zone`) otherwise.
+        ``body_a`` / ``body_b`` [m]: (length, width) of the vehicles on path_a / path_b (None:
+        the model's)."""
+        own = (self.model.vehicle_length, self.model.vehicle_width)
+        body_a, body_b = body_a or own, body_b or own
+        key = (conflict.path_a, conflict.path_b) + ((body_a, body_b) if (body_a, body_b) != (own, own) else ())
         if key not in self.zones:
-            length, width = self.model.vehicle_length, self.model.vehicle_width
+            length, width = body_a
             zone = None
-            if conflict.kind == "cross" and all(p in self.paths for p in key):
-                if key[1] not in self.swept:
-                    self.swept[key[1]] = swept_area(self.paths[key[1]], length, width)
-                zone = conflict_zone(self.paths[key[0]], self.paths[key[1]], length, width, self.swept[key[1]])
+            if conflict.kind == "cross" and all(p in self.paths for p in key[:2]):
+                swept_key = key[1] if body_b == own else (key[1], body_b)
+                if swept_key not in self.swept:
+                    self.swept[swept_key] = swept_area(self.paths[key[1]], *body_b)
+                zone = conflict_zone(self.paths[key[0]], self.paths[key[1]], length, width, self.swept[swept_key])
             self.zones[key] = zone if zone is not None else point_zone(conflict.s_a, length, width)
         return self.zones[key]
 
@@ -153,11 +164,14 @@ class _Zones:
 def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str, MovementPath],
                conflicts: dict, model: ModelSettings, ssm: pd.DataFrame,
                game_steps: dict[tuple[str, str], int],
-               kinds: dict[str, tuple[str, str]] | None = None) -> pd.DataFrame:
+               kinds: dict[str, tuple[str, str]] | None = None,
+               bodies: dict[str, tuple[float, float]] | None = None) -> pd.DataFrame:
     """pairs.csv: one row per pair of vehicles whose paths conflict and who met in the network;
     ``kinds``: vehicle id -> (driver, vtype), the kinds of the two vehicles of a row (missing:
-    ("av", "av"))."""
-    kinds = kinds or {}
+    ("av", "av")); ``bodies``: vehicle id -> (length, width) [m] (missing: the model's), the
+    bodies its PET zones and following gaps are measured with."""
+    kinds, bodies = kinds or {}, bodies or {}
+    own = (model.vehicle_length, model.vehicle_width)
     tracks = _tracks(traj)
     ssm_min = _ssm_minima(ssm)
     rows = []
@@ -178,8 +192,10 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
             rows.append({"vehicle_a": va, "vehicle_b": vb, "conflict": conflict.kind,
                          "min_ttc": min_ttc_arrays(conflict, sa[ia], spa[ia], sb[ib], spb[ib], model,
                                                    _zone(paths, final_paths.get(va)),
-                                                   _zone(paths, final_paths.get(vb))),
-                         "pet": pet_arrays(ta, sa, tb, sb, zones.zone(conflict), zones.zone(conflict.swapped())),
+                                                   _zone(paths, final_paths.get(vb)),
+                                                   (bodies.get(va, own)[0], bodies.get(vb, own)[0]) if bodies else None),
+                         "pet": pet_arrays(ta, sa, tb, sb, zones.zone(conflict, bodies.get(va), bodies.get(vb)),
+                                           zones.zone(conflict.swapped(), bodies.get(vb), bodies.get(va))),
                          "min_ttc_ssm": ttc_ssm,
                          "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0)),
                          "driver_a": kinds.get(va, ("av", "av"))[0], "driver_b": kinds.get(vb, ("av", "av"))[0],

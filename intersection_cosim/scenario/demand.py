@@ -21,9 +21,9 @@ from intersection_cosim.scenario.values import number
 
 VCLASS = "passenger"  # [-] the SUMO vehicle class routes and lanes must allow
 GENERIC_FLOW_KEYS = ("id", "from", "to", "route", "rate", "kappa", "begin", "end", "speed", "lane", "pos",
-                     "distance", "av_share")
+                     "distance", "av_share", "vtype")
 GENERIC_VEHICLE_KEYS = ("id", "edge", "lane", "pos", "position", "to", "route", "speed", "kappa", "depart",
-                        "desired_speed", "driver")
+                        "desired_speed", "driver", "vtype")
 DEPART_LANES = ("best", "random", "free", "first", "allowed")  # SUMO departLane words
 DEPART_SPEEDS = ("max", "desired", "speedLimit", "random")  # SUMO departSpeed words
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every passenger lane is an error

@@ -32,17 +32,19 @@ from intersection_cosim.scenario.model import (
     Scenario,
     ScenarioSettings,
     VehicleSpec,
+    VehicleType,
 )
 from intersection_cosim.scenario.network import net_of, network_settings, route_file_ids
+from intersection_cosim.scenario.vtypes import referenced, route_file_vtypes, vtypes_of, with_vtype_defaults
 from intersection_cosim.settings import from_table
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
-TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vehicle", "flow", "v2x")
+TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "vehicle", "flow", "v2x")
 CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
-                "kappa", "depart", "desired_speed", "driver")
+                "kappa", "depart", "desired_speed", "driver", "vtype")
 FLOW_KEYS = ("id", "approach", "movement", "from", "to", "route", "rate", "kappa", "begin", "end", "lane", "speed",
-             "distance", "av_share")
+             "distance", "av_share", "vtype")
 DRIVER_STREAM = 16  # [-] second word of the seed of the drivers' draw (a stream apart from the arrivals')
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error
 
@@ -336,11 +338,13 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path
         raise InputError(src, "human", data["human"], "must be a table")
     human = from_table(HumanDriverSettings, data.get("human"), src, "human")
     network = network_settings(src, data.get("network"), Path(src).parent if base is None else Path(base))
-    vehicles, flows = _demand(src, data, scen, model, network)
+    route_types = route_file_vtypes(network.routes) if network.routes is not None else ()
+    vtypes = vtypes_of(src, data.get("vtype"), route_types)
+    vehicles, flows = _demand(src, data, scen, model, network, vtypes)
     v2x = _v2x(src, data.get("v2x"), vehicles, flows, network)
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
                     controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network,
-                    v2x=v2x, human=human)
+                    v2x=v2x, human=human, vtypes=vtypes)
 
 
 def _v2x(src: str, table: Any, vehicles: list[VehicleSpec], flows: list[FlowSpec],
@@ -373,28 +377,41 @@ def _v2x(src: str, table: Any, vehicles: list[VehicleSpec], flows: list[FlowSpec
     return dataclasses.replace(settings, attack=tuple(attacks))
 
 
+def _typed(src: str, field: str, table: Any, vtypes: tuple[VehicleType, ...], flow: bool,
+           parse) -> VehicleSpec | FlowSpec:
+    """``parse(table)`` of a vehicle or flow table naming a ``vtype``: its kappa and driver
+    defaults filled in (scenario/vtypes.py), the spec carrying the vtype's id."""
+    if not isinstance(table, dict) or "vtype" not in table:
+        return parse(table)
+    vt = referenced(src, field, table, vtypes)
+    return dataclasses.replace(parse(with_vtype_defaults(src, field, table, vt, flow)), vtype=vt.id)
+
+
 def _demand(src: str, data: dict[str, Any], scen: ScenarioSettings, model: ModelSettings,
-            network: NetworkSettings) -> tuple[list[VehicleSpec], list[FlowSpec]]:
+            network: NetworkSettings, vtypes: tuple[VehicleType, ...] = ()) -> tuple[list[VehicleSpec], list[FlowSpec]]:
     """The scenario's [[vehicle]] and [[flow]] tables, validated on its net."""
     net = net_of(network)
     paths = load_paths(cached_net(IntersectionSpec(junction_type=scen.junction_type))) if net is None else {}
     raw_vehicles = data.get("vehicle", [])
     if not isinstance(raw_vehicles, list):
         raise InputError(src, "vehicle", raw_vehicles, "must be an array of tables ([[vehicle]])")
-    vehicles = [_any_vehicle(src, i, t, paths, net) for i, t in enumerate(raw_vehicles)]
+    vehicles = [_typed(src, f"vehicle[{i}]", t, vtypes, False, lambda t, i=i: _any_vehicle(src, i, t, paths, net))
+                for i, t in enumerate(raw_vehicles)]
     seen: set[str] = set()
     for v in vehicles:
         if v.id in seen:
             raise InputError(src, "vehicle.id", v.id, "duplicate id")
         seen.add(v.id)
+    longest = max([model.vehicle_length] + [vt.length for vt in vtypes if vt.length is not None])  # [m]
     if net is None:
-        _check_spacing(src, vehicles, paths, model.vehicle_length)
+        _check_spacing(src, vehicles, paths, longest)
     else:
-        check_generic_spacing(src, vehicles, model.vehicle_length)
+        check_generic_spacing(src, vehicles, longest)
     raw_flows = data.get("flow", [])
     if not isinstance(raw_flows, list):
         raise InputError(src, "flow", raw_flows, "must be an array of tables ([[flow]])")
-    flows = [_any_flow(src, i, t, net) for i, t in enumerate(raw_flows)]
+    flows = [_typed(src, f"flow[{i}]", t, vtypes, True, lambda t, i=i: _any_flow(src, i, t, net))
+             for i, t in enumerate(raw_flows)]
     fids: set[str] = set()
     for f in flows:
         if f.id in fids or f.id in seen:
@@ -454,7 +471,7 @@ def _draw_kappa(kd: KappaDistribution, rng: np.random.Generator) -> float:
 def _flow_arrival(flow: FlowSpec, k: int, t: float, kappa: float, rng: np.random.Generator) -> dict:
     """The k-th vehicle of ``flow``, departing at ``t`` [s]; a paper flow draws its lane from ``rng``."""
     common = {"id": f"{flow.id}.{k}", "flow": flow.id, "approach": flow.approach, "movement": flow.movement,
-              "depart": round(float(t), 2), "kappa": kappa, "distance": flow.distance}
+              "depart": round(float(t), 2), "kappa": kappa, "distance": flow.distance, "vtype": flow.vtype}
     if flow.route is not None:
         return {**common, "lane": "", "route": flow.route, "depart_lane": flow.depart_lane,
                 "speed": flow.depart_speed, "depart_pos": flow.depart_pos}

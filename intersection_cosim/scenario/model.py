@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from intersection_cosim.models.settings import ModelSettings
@@ -81,6 +82,49 @@ class HumanDriverSettings:
         return problems
 
 
+@dataclass(frozen=True)
+class VehicleType:
+    """A ``[[vtype]]`` table: a class of vehicles with its own body, limits and driver.
+
+    ``None`` fields take the run's default (the ``av`` vType's): the model's vehicle_length /
+    vehicle_width / v_max, the game's a_max and -a_min for accel / decel. Its vehicles get the SUMO
+    vType of the same id; an AV-type vehicle drawn human by a flow's ``av_share`` (or given
+    ``driver = "human"``) gets ``<id>.human``: the same body and limits, driven by the [human]
+    table's car-following model.
+    """
+
+    id: str
+    length: float | None = None  # [m] bumper to bumper (None: ModelSettings.vehicle_length)
+    width: float | None = None  # [m] (None: ModelSettings.vehicle_width)
+    accel: float | None = None  # [m/s^2] strongest acceleration; caps its planned a (None: the game's a_max)
+    decel: float | None = None  # [m/s^2] comfortable (planned) braking, > 0 (None: the game's -a_min)
+    max_speed: float | None = None  # [m/s] its maximum speed (None: ModelSettings.v_max)
+    kappa: float | None = None  # [-] kappa of its vehicles that give none (None: they must give one)
+    driver: str = "av"  # [-] "av" (av_share of a flow applies) or "human" (every vehicle of it is human)
+    color: tuple[int, ...] = ()  # [-] SUMO colour r, g, b (0-255); () = SUMO's default
+    min_gap: float | None = None  # [m] SUMO's standstill gap (None: 2.0 for AVs, [human] min_gap for humans)
+    from_routes: bool = False  # [-] a vType of the [network] routes file (not written again; not a TOML key)
+
+    def check(self) -> list[tuple[str, str]]:
+        problems = []
+        for name in ("length", "width", "accel", "decel", "max_speed"):
+            value = getattr(self, name)
+            if value is not None and not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                                          and math.isfinite(value) and value > 0):
+                problems.append((name, "must be a finite number > 0"))
+        if self.min_gap is not None and not (isinstance(self.min_gap, (int, float)) and not isinstance(self.min_gap, bool)
+                                             and math.isfinite(self.min_gap) and self.min_gap >= 0):
+            problems.append(("min_gap", "must be a finite number >= 0"))
+        if self.kappa is not None and not (isinstance(self.kappa, (int, float)) and not isinstance(self.kappa, bool)
+                                           and 0.0 <= self.kappa <= 1.0):
+            problems.append(("kappa", "must be a number in [0, 1]"))
+        if self.driver not in DRIVERS:
+            problems.append(("driver", f"must be one of {', '.join(DRIVERS)}"))
+        if self.color and (len(self.color) not in (3, 4) or any(not 0 <= c <= 255 for c in self.color)):
+            problems.append(("color", "must be [r, g, b] (or [r, g, b, a]), each 0-255"))
+        return problems
+
+
 PAPER_JUNCTION = "C"  # the generated net's centre node (network/build.py)
 SIGNALS = ("off", "on")  # [network] signals: traffic lights of managed junctions switched off / kept
 
@@ -132,6 +176,7 @@ class VehicleSpec:
     depart_lane: int | None = None  # [-] SUMO lane index on route[0] (None: paper forms)
     depart_pos: float | None = None  # [m] front bumper along that lane (None: paper forms)
     driver: str = "av"  # [-] "av" (the controller drives it) or "human" (SUMO's model, never commanded)
+    vtype: str | None = None  # [-] its [[vtype]] id (None: the default vType of its driver)
 
 
 @dataclass(frozen=True)
@@ -170,6 +215,7 @@ class FlowSpec:
     depart_speed: str = "max"  # [m/s] SUMO departSpeed: a number, "max", "desired", "speedLimit" or "random"
     depart_pos: float | None = None  # [m] departPos along route[0]; None = "base" (its start)
     av_share: float = 1.0  # [-] probability that an inserted vehicle is an AV (else a human), seeded
+    vtype: str | None = None  # [-] the [[vtype]] id of its vehicles (None: the default vType of their driver)
 
 
 @dataclass(frozen=True)
@@ -185,3 +231,8 @@ class Scenario:
     network: NetworkSettings = NetworkSettings()  # the [network] table (default: the generated paper net)
     v2x: V2XSettings = V2XSettings()  # the [v2x] table (default: perfect information, no channel)
     human: HumanDriverSettings = HumanDriverSettings()  # the [human] table: how SUMO drives humans
+    vtypes: tuple[VehicleType, ...] = ()  # the [[vtype]] tables, in file order
+
+    def vtype(self, vid: str | None) -> VehicleType | None:
+        """The [[vtype]] of id ``vid`` (None for None)."""
+        return None if vid is None else next(t for t in self.vtypes if t.id == vid)

@@ -116,6 +116,8 @@ class SumoSimulation:
     adopt_controlled: bool = True  # vehicles of the user's own route file are controlled
     control_range: float = math.inf  # [m] before the stop line where a vehicle without an intended path is taken over
     taken: set[str] = field(default_factory=set)  # vehicles whose speed the controller commands
+    bodies: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # per vehicle, read from
+    #   its vType at departure: length [m], width [m], accel [m/s^2], decel [m/s^2]
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
 
@@ -145,6 +147,8 @@ class SumoSimulation:
             self.departed[vid] = self.time - self.step_length
             self.api.vehicle.subscribe(vid, _VARS)
             info = self.vehicles.get(vid) or self._adopt(vid)
+            veh = self.api.vehicle
+            self.bodies[vid] = (veh.getLength(vid), veh.getWidth(vid), veh.getAccel(vid), veh.getDecel(vid))
             if info.desired_speed is not None:
                 self.api.vehicle.setMaxSpeed(vid, info.desired_speed)
             if info.intended_path is None:
@@ -295,6 +299,7 @@ class SumoSimulation:
         n = len(ids)
         s = np.empty(n)
         arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
+        body = np.array([self.bodies[vid] for vid in ids], float).reshape(n, 4)  # length, width, accel, decel
         human = np.zeros(n, bool)
         path_ids, roles, lanes = [], [], []
         exit_choices: dict[str, tuple[str, ...]] = {}
@@ -326,7 +331,8 @@ class SumoSimulation:
         return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
                      lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human,
-                     exit_free=self._exit_free(exit_choices, roles, ids))
+                     exit_free=self._exit_free(exit_choices, roles, ids), length=body[:, 0], width=body[:, 1],
+                     accel=body[:, 2], decel=body[:, 3])
 
     def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
         """Per exit lane (SUMO lane id) a READY vehicle may take: ([m] from the lane's start to the

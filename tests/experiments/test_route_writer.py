@@ -1,5 +1,6 @@
 """write_routes on a [network] file net: SUMO accepts what it writes; a user route file rides along."""
 
+import dataclasses
 import os
 import re
 import subprocess
@@ -11,6 +12,8 @@ import numpy as np
 import sumo
 
 from intersection_cosim.experiments.files import ROUTE_FILE, route_files, write_routes, write_sumocfg
+from intersection_cosim.network.build import build_network
+from intersection_cosim.network.paths import load_paths
 from intersection_cosim.scenario import load_scenario
 from intersection_cosim.scenario.load import generate_flow_vehicles
 
@@ -131,3 +134,46 @@ def test_a_user_route_file_is_listed_not_copied(tmp_path):
 def test_paper_scenarios_list_only_their_own_route_file():
     scn = load_scenario(Path(__file__).resolve().parents[2] / "scenarios" / "case1_A.toml")
     assert route_files(scn) == [ROUTE_FILE]
+
+
+def test_a_flow_of_a_vtype_of_the_user_route_file(tmp_path):
+    """``vtype = "lorry"`` may name a vType of ``[network] routes``: its body is read for the
+    scenario (length, width, accel, decel), no copy is written, and the user's file is loaded
+    first so SUMO knows the type before the flow's first vehicle."""
+    (tmp_path / "bg.rou.xml").write_text('<routes><vType id="lorry" length="10" width="2.4" accel="1.1"/>'
+                                         '</routes>')
+    path = tmp_path / "scenario.toml"
+    path.write_text(textwrap.dedent(SCENARIO.format(routes='routes = "bg.rou.xml"')).replace(
+        'id = "west"', 'id = "west"\nvtype = "lorry"'))
+    scn = load_scenario(path)
+    lorry = scn.vtype("lorry")
+    assert (lorry.length, lorry.width, lorry.accel, lorry.decel, lorry.from_routes) == (10.0, 2.4, 1.1, 4.5, True)
+    assert scn.flows[0].vtype == "lorry"
+    assert route_files(scn) == [str((tmp_path / "bg.rou.xml").resolve()), ROUTE_FILE]
+    flow_vehicles = generate_flow_vehicles(scn, np.random.default_rng(scn.scenario.seed))
+    run = tmp_path / "run"
+    run.mkdir()
+    write_routes(run / ROUTE_FILE, scn, {}, flow_vehicles)
+    root = ET.parse(run / ROUTE_FILE).getroot()
+    assert [el.get("id") for el in root.iter("vType")] == ["av"]
+    assert {el.get("type") for el in root.iter("vehicle") if el.get("id").startswith("west.")} == {"lorry"}
+    proc = _sumo(CROSS, route_files(scn), 20, run)
+    assert proc.returncode == 0, proc.stderr
+    assert _loaded(proc) == 2 + len(flow_vehicles)
+
+
+def test_the_av_vtype_takes_the_games_acceleration_limits(tmp_path):
+    """vType av's accel / decel are the game's a_max / -a_min: the defaults 2.5 / 4.0, or the
+    [controller.game] table's; a [[vtype]] without its own takes them too."""
+    base = Path(__file__).resolve().parents[2] / "scenarios" / "case1_A.toml"
+    text = base.read_text() + '\n[[vtype]]\nid = "van"\nlength = 6.0\n'
+    for game, expected in (("", ("2.5", "4")), ("[controller.game]\na_max = 2.0\na_min = -3.5\n", ("2", "3.5"))):
+        path = tmp_path / "s.toml"
+        path.write_text(text + "\n" + game)
+        scn = load_scenario(path)
+        vehicles = [dataclasses.replace(v, vtype="van") if v.id == "V1" else v for v in scn.vehicles]
+        scn = dataclasses.replace(scn, vehicles=tuple(vehicles))
+        write_routes(tmp_path / ROUTE_FILE, scn, load_paths(build_network(tmp_path / "net")), [])
+        types = {el.get("id"): el for el in ET.parse(tmp_path / ROUTE_FILE).getroot().iter("vType")}
+        for vid in ("av", "van"):
+            assert (types[vid].get("accel"), types[vid].get("decel")) == expected

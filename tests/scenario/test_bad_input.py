@@ -19,6 +19,16 @@ speed = 5.5
 kappa = 0.5
 """
 
+BUS = """
+[[vtype]]
+id = "bus"
+length = 12.0
+width = 2.5
+accel = 1.2
+decel = 4.0
+kappa = 0.3
+"""
+
 HEADER = """
 [scenario]
 name = "bad"
@@ -77,6 +87,34 @@ CASES = [
     ("human sigma above 1", HEADER + '[human]\nsigma = 1.5\n' + GOOD_VEHICLE, "human.sigma", "1.5"),
     ("a table fcfs does not take", HEADER + '[controller]\nkind = "fcfs"\n[controller.policy]\nsolo_max_iter = 2\n'
      + GOOD_VEHICLE, "controller.policy.solo_max_iter", "only [controller.solver]"),
+    # vehicle types (issue 16)
+    ("an unknown vtype of a vehicle", HEADER + BUS + GOOD_VEHICLE.replace("kappa = 0.5", 'kappa = 0.5\nvtype = "tram"'),
+     "vehicle[0].vtype", "'tram'"),
+    ("an unknown vtype of a flow", HEADER + BUS + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = 100\n'
+     'kappa = 0.5\nvtype = "lorry"\n', "flow[0].vtype", "'lorry'"),
+    ("a vtype of negative length", HEADER + BUS.replace("length = 12.0", "length = -12.0") + GOOD_VEHICLE,
+     "vtype[bus].length", "-12.0"),
+    ("a vtype of negative accel", HEADER + BUS.replace("accel = 1.2", "accel = -1.2") + GOOD_VEHICLE,
+     "vtype[bus].accel", "-1.2"),
+    ("a vtype of zero decel", HEADER + BUS.replace("decel = 4.0", "decel = 0.0") + GOOD_VEHICLE,
+     "vtype[bus].decel", "0.0"),
+    ("an unknown vtype field", HEADER + BUS.replace("width = 2.5", "widht = 2.5") + GOOD_VEHICLE,
+     "vtype[bus].widht", "2.5"),
+    ("a vtype without id", HEADER + BUS.replace('id = "bus"\n', "") + GOOD_VEHICLE, "vtype[0].id", "None"),
+    ("a vtype named av", HEADER + BUS.replace('id = "bus"', 'id = "av"') + GOOD_VEHICLE, "vtype[0].id", "'av'"),
+    ("a vtype length as text", HEADER + BUS.replace("length = 12.0", 'length = "long"') + GOOD_VEHICLE,
+     "vtype[bus].length", "'long'"),
+    ("a vtype kappa above 1", HEADER + BUS.replace("kappa = 0.3", "kappa = 1.3") + GOOD_VEHICLE,
+     "vtype[bus].kappa", "1.3"),
+    ("an unknown vtype driver", HEADER + BUS + '[[vtype]]\nid = "tram"\ndriver = "robot"\n' + GOOD_VEHICLE,
+     "vtype[tram].driver", "'robot'"),
+    ("a human vtype's vehicle said to be an AV", HEADER + '[[vtype]]\nid = "hcar"\ndriver = "human"\n'
+     + GOOD_VEHICLE.replace("kappa = 0.5", 'kappa = 0.5\nvtype = "hcar"\ndriver = "av"'), "vehicle[0].driver", "'av'"),
+    ("av_share on a human vtype's flow", HEADER + '[[vtype]]\nid = "hcar"\ndriver = "human"\n[[flow]]\n'
+     'approach = "north"\nmovement = "straight"\nrate = 100\nkappa = 0.5\nvtype = "hcar"\nav_share = 0.5\n',
+     "flow[0].av_share", "0.5"),
+    ("a vehicle of a vtype without kappa gives none", HEADER + '[[vtype]]\nid = "van"\nlength = 6.0\n'
+     + GOOD_VEHICLE.replace("kappa = 0.5", 'vtype = "van"'), "vehicle[V1].kappa", "None"),
 ]
 
 
