@@ -261,13 +261,18 @@ class GameController:
         """The last applied plan shifted by one period (comfortable braking where there is none),
         through the safety filter.
 
-        Called by the scheduler when ``decide`` overran its budget or failed: the plans that
-        ``decide`` made in this step are discarded, the ones applied at the previous step are
-        shifted. The safety filter still runs (it costs about a millisecond, the games are what
-        overran): in long stretches of missed deadlines the shifted plans go stale.
+        Called by the scheduler when ``decide`` overran its budget or failed: this step drives
+        the plans applied at the previous step, shifted, and the plans ``decide`` made in this
+        step (late) become the ones the next step shifts, as a HIL box's late answer lands one
+        period late. So in a stretch of missed deadlines every step drives the decisions of the
+        step before (one period of latency) instead of plans that go staler each period (a
+        junction whose every step overran once stood still for good: its kept plans braked
+        everyone to a stop). The safety filter still runs (it costs about a millisecond, the
+        games are what overran).
         """
+        late = None
         if self._decided_at == world.time:
-            self.memory.plans = self._applied
+            late, self.memory.plans = self.memory.plans, self._applied
         decisions = Decisions(fallback=True)
         self.safety.record_entries(world)
         period = self.ctx.control_period
@@ -283,4 +288,6 @@ class GameController:
             self.controlled.add(vid)
         if active:
             self._filter(world, self._relations(world, active), decisions)
+        if late is not None:  # the next step starts from decide's late plans
+            self.memory.plans.update({vid: plan for vid, plan in late.items() if vid in self.memory.plans})
         return decisions

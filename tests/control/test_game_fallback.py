@@ -25,9 +25,10 @@ def test_fallback_without_plans_brakes_comfortably(controller, paths):
     assert d.fallback and d.accel["V1"] == pytest.approx(-controller.settings.game.comfort_brake)
 
 
-def test_fallback_discards_the_overrun_steps_plans_and_filters_a_collision(controller, paths):
+def test_fallback_drives_the_last_plans_and_keeps_the_overrun_ones_for_the_next_step(controller, paths):
     """decide() ran at 1.0 s and again at 1.1 s, which overran: the fallback of 1.1 s drives the
-    plans of 1.0 s shifted by one period, not the discarded ones of 1.1 s, through the filter."""
+    plans of 1.0 s shifted by one period, not the late ones of 1.1 s, through the filter; the
+    late plans of 1.1 s are what the next step shifts (they land one period late)."""
     cp = controller.table
     i, j = cp.index["south_inner_left_inner"], cp.index["east_inner_left_inner"]
     s_a, s_b = cp.s_a[i, j] - 16.0, cp.s_b[i, j] - 16.0  # [m] both 2 s from the point
@@ -38,15 +39,22 @@ def test_fallback_discards_the_overrun_steps_plans_and_filters_a_collision(contr
     world = _world(paths, 1.1, moved["V1"][0], moved["V2"][0])
     world.v[:] = (moved["V1"][1], moved["V2"][1])
     controller.decide(world, time.perf_counter() + 10.0)
-    assert any(controller.memory.plans[v] is not applied[v] for v in applied)
+    late = dict(controller.memory.plans)
+    assert any(late[v] is not applied[v] for v in applied)
     before = controller.diagnostics().safety_interventions
     d = controller.fallback(world)
     assert d.fallback and not d.games
     for v in ("V1", "V2"):
         kept = max(float(applied[v].accelerations[1]), -float(world.v[world.ids.index(v)]) / 0.1)
         assert d.accel[v] <= kept + 1e-12  # the 1.0 s plan, shifted (or lowered by the filter)
-        assert controller.memory.plans[v].accelerations[0] == pytest.approx(float(applied[v].accelerations[1]))
+        assert controller.memory.plans[v] is late[v]  # the next step shifts the late 1.1 s plan
     assert controller.diagnostics().safety_interventions >= before
+    # 1.2 s overruns too: it drives the 1.1 s plans shifted by one period
+    nxt = _world(paths, 1.2, *(float(late[v].positions[1]) for v in ("V1", "V2")))
+    nxt.v[:] = [float(late[v].speeds[1]) for v in ("V1", "V2")]
+    d = controller.fallback(nxt)
+    for v in ("V1", "V2"):
+        assert d.accel[v] <= max(float(late[v].accelerations[1]), -float(nxt.v[nxt.ids.index(v)]) / 0.1) + 1e-12
 
 
 def test_fallback_brakes_one_of_two_plans_that_would_collide(controller, paths):
