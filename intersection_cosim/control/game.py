@@ -33,10 +33,10 @@ junction). A vehicle that has left the conflict zone is handed back to SUMO's dr
 
 **Human drivers** (``World.human``) are observed, never players: they get no decision, play no
 game and are never commanded. A human leader enters its AV follower's J_log as a fixed (constant
-speed) trajectory (control/players.py); a crossing with a human is guarded by the safety filter,
-which predicts the human by :func:`~intersection_cosim.models.prediction.human_accelerations` and
-never lets the AV claim the crossing against it (control/safety.py). The pair plays no game, so
-the human's trajectory does not enter the AV's J_lat (a vehicle in no game plans with k_lat = 0).
+speed) trajectory, and a human of a triggered crossing enters the AV's J_lat with its forecast
+fixed (``Player.crossers``, control/players.py); the safety filter guards the crossing, predicting
+the human by :func:`~intersection_cosim.models.prediction.human_accelerations`, and never lets
+the AV claim it against the human (control/safety.py).
 """
 
 from __future__ import annotations

@@ -8,12 +8,11 @@ solver steps, so a plan one period old is the stored plan shifted by ``shift``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Iterable, Union
 
 import numpy as np
-
-import math
 
 from intersection_cosim.control.base import World
 from intersection_cosim.games.problem import Plan, shift_plan

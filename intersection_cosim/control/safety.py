@@ -35,10 +35,10 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   :func:`~intersection_cosim.models.prediction.human_accelerations` (its present acceleration
   clipped to [0, a_max], never braking). Before it enters the junction it ranks ahead of every AV
   not yet in (it will not yield to them; an AV that can still stay out of the crossing does, one
-  that cannot holds back as hard as it may, unless that would stop it inside the crossing: then it
-  drives out, as SUMO's human brakes for a vehicle in its way), behind every vehicle already in the junction (SUMO's
-  own model makes a human wait for a vehicle in its crossing, and that AV drives out by the box
-  rule); inside, it ranks by its entry like an AV. The filter never caps a human. An AV not yet
+  that cannot holds back as hard as it may, unless that would stop it inside the crossing: then
+  it drives out, as SUMO's human brakes for a vehicle in its way), behind every vehicle already
+  in the junction (SUMO's own model makes a human wait for a vehicle in its crossing, and that AV
+  drives out by the box rule); inside, it ranks by its entry like an AV. The filter never caps a human. An AV not yet
   in the junction waits at its stop line while a human of its crossing stands in that crossing or
   brakes (``SafetySettings.human_brake``) to stop in it (:meth:`SafetyFilter._hold_for_human`).
 """
