@@ -129,7 +129,7 @@ class GameController:
                                  lane_costs, context.movements)
         self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.movements)
         self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
-                                   context.control_period)
+                                   context.control_period, self.table.s_wait)
         self.schedule = AnytimeSchedule()
         reset_workspaces()
         self._warm_up()

@@ -160,8 +160,9 @@ class SafetyFilter:
     """
 
     def __init__(self, settings: SafetySettings, problem: ProblemSettings, model: ModelSettings,
-                 s_stop: np.ndarray, period: float):
+                 s_stop: np.ndarray, period: float, s_wait: np.ndarray | None = None):
         self.settings, self.problem, self.model, self.s_stop, self.period = settings, problem, model, s_stop, period
+        self.s_wait = np.full(len(s_stop), math.inf) if s_wait is None else s_wait  # [m] per path, inf: none
         self.entered: dict[str, float] = {}  # [s] when each vehicle entered the junction (the queue)
         self.filtered = 0  # accelerations the filter lowered
         self.cleared = 0  # accelerations the filter raised to clear a crossing (box rule)
@@ -201,7 +202,7 @@ class SafetyFilter:
         guarded = np.flatnonzero(on[pairs.ri] & on[pairs.rj]) if len(pairs) else np.zeros(0, np.intp)
         if world.human is not None and bool(np.any(world.human)):
             for m in guarded:
-                self._hold_for_human(world, relations, pairs.at(m), cap)
+                self._hold_for_human(world, relations, pairs.at(m), plans, cap)
         for _pass in range(2):
             for vid in clear:
                 if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:
@@ -333,34 +334,51 @@ class SafetyFilter:
         s, v = float(world.s[k]), float(world.v[k])  # [m], [m/s]
         return s + v * self.period + v * v / (2.0 * -self.problem.a_min) >= enter
 
-    def _hold_for_human(self, world: World, relations: Relations, lat: Lateral, cap: dict[str, float]) -> None:
+    def _hold_for_human(self, world: World, relations: Relations, lat: Lateral, plans: Mapping[str, Plan],
+                        cap: dict[str, float]) -> None:
         """Cap (into ``cap``) an AV not yet in the junction to wait at its stop line while the
-        human of its crossing ``lat`` stands in that crossing or brakes to stop in it (SUMO holds
-        it there, e.g. a left turn at its internal stop point for the opposing stream): once in,
-        the AV would stop short of the human inside the box, in other vehicles' crossings, and
-        SUMO holds those for the AV (a cycle). Nothing when the AV can no longer stop there."""
+        human of its crossing ``lat`` stands in that crossing, brakes to stop in it, or may be
+        held in it at its waiting position (:meth:`_human_stop`): SUMO holds it there, e.g. a
+        left turn at its internal stop point for the opposing stream, and once in, the AV would
+        stop short of the human inside the box, in other vehicles' crossings, while SUMO holds
+        the human for the AV in its lane (a cycle). Nothing when the AV can no longer stop there."""
         st, rows = self.settings, relations.rows
         ki, kj = int(rows.vehicle[lat.ri]), int(rows.vehicle[lat.rj])
-        for h, k, zone_h, row, zone_k in ((ki, kj, lat.zone_i, lat.rj, lat.zone_j), (kj, ki, lat.zone_j, lat.ri, lat.zone_i)):
+        for h, k, zone_h, rh, row, zone_k in ((ki, kj, lat.zone_i, lat.ri, lat.rj, lat.zone_j),
+                                             (kj, ki, lat.zone_j, lat.rj, lat.ri, lat.zone_i)):
             if not world.is_human(h) or world.is_human(k) or world.role[k] != "ready" or world.ids[k] in self.entered:
                 continue
-            v_h, a_h = float(world.v[h]), float(world.a[h])  # [m/s], [m/s^2]
-            if v_h < st.clear_speed:
-                stop_h = float(world.s[h])  # [m] where it stands
-            elif a_h <= -st.human_brake:
-                stop_h = float(world.s[h]) + v_h * v_h / (2.0 * -a_h)  # [m] where it will stop
-            else:
-                continue
-            if not zone_h[0] <= stop_h < zone_h[1]:
-                continue
             s_k, v_k = float(world.s[k]), float(world.v[k])
-            if s_k >= zone_k[0]:
+            if s_k >= zone_k[0] or not self._human_stop(world, h, zone_h, float(self.s_wait[rows.pidx[rh]]),
+                                                        plans.get(world.ids[k]), zone_k):
                 continue
             a = stopping_acceleration(s_k, v_k, float(self.s_stop[rows.pidx[row]]) - st.safety_margin)
             if a is None:  # at (or just past) its stop line: stay there
                 a = max(self.problem.a_min, -v_k / self.period) if v_k < st.clear_speed else self.problem.a_min - 1.0
             if a >= self.problem.a_min:
                 cap[world.ids[k]] = min(cap.get(world.ids[k], math.inf), a)
+
+    def _human_stop(self, world: World, h: int, zone_h: tuple[float, float], s_wait: float,
+                    plan_k: Plan | None, zone_k: tuple[float, float]) -> bool:
+        """Whether human h stands in its zone ``zone_h`` [m], brakes (``human_brake``) to stop in
+        it, or may stop in it at its waiting position ``s_wait`` [m] (where SUMO's right of way
+        holds a left turn for the opposing stream; its braking starts only metres before it,
+        too late for an AV at its stop line to react): the last when the human has not passed
+        that position and the AV's ``plan_k`` does not leave its zone ``zone_k`` ``safety_time_gap``
+        before the human's forecast reaches its zone (the AV would still be in the way)."""
+        st = self.settings
+        s_h, v_h, a_h = float(world.s[h]), float(world.v[h]), float(world.a[h])  # [m], [m/s], [m/s^2]
+        if v_h < st.clear_speed:
+            stop_h = s_h  # where it stands
+        elif a_h <= -st.human_brake:
+            stop_h = s_h + v_h * v_h / (2.0 * -a_h)  # where it will stop
+        elif s_h < s_wait and zone_h[0] <= s_wait < zone_h[1] and plan_k is not None:
+            in_h, _ = occupancy(self._plan_of(world, h, {}), *zone_h)
+            _, out_k = occupancy(plan_k, *zone_k)
+            return out_k + st.safety_time_gap > in_h
+        else:
+            return False
+        return zone_h[0] <= stop_h < zone_h[1]
 
     def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan]) -> Plan | None:
         """The plan the filter checks for vehicle k: this step's, or constant speed for one

@@ -360,6 +360,7 @@ class ConflictTable:
     s_stop: np.ndarray = field(repr=False)  # (P,) [m] arc length of each path's stop line
     s_exit: np.ndarray = field(repr=False)  # (P,) [m] arc length where each path enters its exit lane
     length: np.ndarray = field(repr=False)  # (P,) [m] total arc length of each path
+    s_wait: np.ndarray = field(repr=False, default=None)  # (P,) [m] each path's MovementPath.s_wait (inf: none)
     zone_in: np.ndarray = field(repr=False, default=None)  # (P, P) [m] cross pairs: see above
     zone_out: np.ndarray = field(repr=False, default=None)  # (P, P) [m]
     body: tuple[float, float] = (4.5, 1.8)  # [m] (length, width) of the bodies zone_in / zone_out are for
@@ -426,7 +427,8 @@ class ConflictTable:
                    paths=dict(paths),
                    s_stop=np.array([paths[i].s_stop for i in ids]),
                    s_exit=np.array([paths[i].s_exit for i in ids]),
-                   length=np.array([paths[i].length for i in ids]))
+                   length=np.array([paths[i].length for i in ids]),
+                   s_wait=np.array([paths[i].s_wait for i in ids], dtype=float))
 
     def indices(self, path_ids) -> np.ndarray:
         """Integer path indices of an iterable of path ids."""

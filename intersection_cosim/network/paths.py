@@ -59,6 +59,15 @@ class MovementPath:
         """The junction-internal lanes, in driving order."""
         return self.lanes[self.stop_index:-1]
 
+    @property
+    def s_wait(self) -> float:
+        """[m] arc length of SUMO's waiting position inside the junction (an internal junction:
+        netconvert splits the internal lane there, e.g. where a left turn waits for the opposing
+        stream), the first one if there are several; ``inf`` for a path with none."""
+        if len(self.junction_lanes) < 2:
+            return float("inf")
+        return float(self.lane_starts[self.stop_index + 1])
+
     def point_at(self, s: float | np.ndarray) -> np.ndarray:
         """[m] (x, y) at arc length ``s`` (clipped to the path)."""
         s = np.clip(s, 0.0, self.length)

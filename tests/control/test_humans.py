@@ -177,3 +177,34 @@ def test_an_av_in_the_box_that_cannot_stay_out_of_a_humans_crossing_drives_out_i
         else:
             assert d.accel["L"] < -1.0  # stops short of the crossing
         assert "H" not in d.accel
+
+
+def test_an_av_waits_at_its_stop_line_while_a_human_may_be_held_at_its_waiting_position_in_its_crossing(
+        paths, movements, conflict_table):
+    """The high-demand lock (av_share 0.5, seed 1): a human turning left from the north (10 m/s,
+    not braking yet) is 15 m before its waiting position, where SUMO holds it for the opposing
+    stream; standing there its body is inside the crossing with an AV turning left from the west.
+    The AV, 8 m before its stop line at 5.5 m/s, would still be in its zone when the human gets
+    there: it stops at its stop line (less the margin) instead of entering and standing in the
+    human's lane. The same AV 1 m before its stop line at 10 m/s, with the human 40 m back,
+    clears its zone before the human arrives: not held. A filter that knows no waiting positions
+    holds neither."""
+    t = conflict_table
+    human, av = "north_inner_left_middle", "west_inner_left_inner"
+    h, k = t.index[human], t.index[av]
+    s_wait = float(t.s_wait[h])
+    assert t.zone_in[h, k] <= s_wait < t.zone_out[h, k]  # its waiting position is in the crossing
+    stop_line = float(t.s_stop[k]) - GS.safety_margin  # [m]
+    for s_h, s_av, v_av, held_expected in ((s_wait - 15.0, stop_line - 7.0, 5.5, True),
+                                           (s_wait - 40.0, float(t.s_stop[k]) - 1.0, 10.0, False)):
+        world = make_world(paths, 10.0, [("L", av, s_av, v_av), ("H", human, s_h, 10.0)])
+        world = dataclasses.replace(world, human=np.array([False, True]))
+        plan = Plan.from_accelerations(s_av, v_av, np.zeros(PROBLEM.steps), PROBLEM.dt)
+        rel = step_relations(world, {0}, movements, t, MODEL, True, {}, RANGE)
+        for s_wait_known in (t.s_wait, None):
+            d = Decisions(accel={"L": 0.0})
+            held = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, s_wait_known).apply(world, rel, {"L": plan}, {}, d)
+            if held_expected and s_wait_known is not None:
+                assert held == {"L"} and np.isclose(d.accel["L"], -v_av ** 2 / (2 * 7.0))  # stops at its line
+            else:
+                assert held == frozenset() and d.accel["L"] == 0.0
