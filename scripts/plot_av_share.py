@@ -3,7 +3,8 @@
     python scripts/plot_av_share.py RUN_DIR... --out av_share.png
 
 Each RUN_DIR is a run folder (``run --out``) whose name contains ``av<share>`` (for example
-``medium_av0.5-nash-s1``); its controller comes from its summary.json. Runs of one controller and
+``medium_av0.5-nash-s1``) or ``av_share_<share>`` (the run folders of ``compare --av-share``, for
+example ``.../runs/nash-seed1-av_share_0.50``); its controller comes from its summary.json. Runs of one controller and
 share (the seeds) are averaged, with their spread as error bars; a controller that does not
 command vehicles (sumo-priority: SUMO drives every vehicle, whatever av_share) is drawn as a
 horizontal band (mean +- std over all its runs). The realised AV share (vehicles.csv's driver
@@ -31,7 +32,7 @@ BASELINES = ("sumo", "sumo-priority", "sumo-allway-stop", "sumo-tls")  # SUMO dr
 def _runs(folders: list[str]) -> pd.DataFrame:
     rows = []
     for folder in map(Path, folders):
-        match = re.search(r"av([0-9.]+?)(?:-|$)", folder.name)
+        match = re.search(r"av(?:_share_)?([0-9]+(?:\.[0-9]+)?)(?:-|$)", folder.name)
         summary = folder / "summary.json"
         if match is None or not summary.exists():
             print(f"skipped {folder} (no av<share> in its name or no summary.json)", file=sys.stderr)

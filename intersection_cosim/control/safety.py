@@ -39,8 +39,11 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   it drives out, as SUMO's human brakes for a vehicle in its way), behind every vehicle already
   in the junction (SUMO's own model makes a human wait for a vehicle in its crossing, and that AV
   drives out by the box rule); inside, it ranks by its entry like an AV. The filter never caps a human. An AV not yet
-  in the junction waits at its stop line while a human of its crossing stands in that crossing or
-  brakes (``SafetySettings.human_brake``) to stop in it (:meth:`SafetyFilter._hold_for_human`).
+  in the junction waits at its stop line while a human of its crossing stands in that crossing,
+  brakes (``SafetySettings.human_brake``) to stop in it, or may be held in it at its waiting
+  position (an internal junction of SUMO's net, where a left turn waits for the opposing stream;
+  SUMO's human brakes for it only metres before it) unless the AV clears its zone before the
+  human gets there (:meth:`SafetyFilter._hold_for_human`).
 """
 
 from __future__ import annotations
