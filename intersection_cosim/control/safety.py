@@ -28,9 +28,11 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   zone. Vehicles braked in a first pass are checked again with their braking plan, so a vehicle
   made to stop is seen by the other crossings it now blocks.
 * **Leaders.** A follower's acceleration is capped by the safe speed of Krauss' car-following
-  model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + v_L^2 + 2 b (gap - margin)), with
-  b = |a_min| and tau = the control period, so it can always stop behind a leader that brakes as
-  hard as it can.
+  model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + (b / b_L) v_L^2 + 2 b (gap - margin)),
+  with tau = the control period, so it can always stop behind a leader that brakes as hard as it
+  can. Every braking limit the filter counts on (b here, b_L the leader's, and every "can it
+  still stop" below) is |a_min|, or a vehicle's own vType decel where that is weaker (a bus
+  braking at 3 m/s^2 is guarded as one).
 * **Humans.** A human driver (``World.human``) will not yield: its plan is the prediction of
   :func:`~intersection_cosim.models.prediction.human_accelerations` (its present acceleration
   clipped to [0, a_max], never braking). Before it enters the junction it ranks ahead of every AV
@@ -140,11 +142,15 @@ def braking_plan(plan: Plan, accel: float) -> Plan:
     return Plan.from_accelerations(float(plan.positions[0]), v0, a, dt)
 
 
-def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float) -> float:
+def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float, leader_decel: float | None = None) -> float:
     """[m/s] Krauss' safe speed behind a leader ``gap`` [m] ahead (bumper to bumper) at
-    ``v_leader`` [m/s], for maximum deceleration ``decel`` [m/s^2] and reaction time ``tau`` [s]."""
+    ``v_leader`` [m/s], for maximum deceleration ``decel`` [m/s^2] and reaction time ``tau`` [s]:
+    the speed from which the follower, reacting after ``tau``, stops within the gap plus the
+    leader's own braking distance v_L^2 / (2 b_L), the leader braking at ``leader_decel`` [m/s^2]
+    (default ``decel``: Krauss' form, -b tau + sqrt((b tau)^2 + v_L^2 + 2 b gap))."""
+    b_l = decel if leader_decel is None else leader_decel
     bt = decel * tau
-    return -bt + math.sqrt(max(bt * bt + v_leader * v_leader + 2.0 * decel * max(gap, 0.0), 0.0))
+    return -bt + math.sqrt(max(bt * bt + decel / b_l * v_leader * v_leader + 2.0 * decel * max(gap, 0.0), 0.0))
 
 
 class _Crossing(NamedTuple):
@@ -192,6 +198,7 @@ class SafetyFilter:
         by every other crossing it now blocks in the same step.
         """
         rows = relations.rows
+        brakes = self._brakes(world)
         chosen = tuple(rows.option[r] == options.get(world.ids[rows.vehicle[r]], rows.option[r])
                        for r in range(len(rows)))
         cap = self._leader_caps(world, relations, chosen, decisions)
@@ -212,12 +219,21 @@ class SafetyFilter:
                     plans[vid] = braking_plan(plans[vid], self.settings.clear_accel)  # constant: it drives on
             for vid, limit in cap.items():
                 if vid in plans and limit < float(plans[vid].accelerations[0]):
-                    plans[vid] = braking_plan(plans[vid], max(limit, self.problem.a_min))
+                    plans[vid] = braking_plan(plans[vid], max(limit, brakes.get(vid, self.problem.a_min)))
             close, occ = self._maybe_close(world, relations, guarded, plans)
             for n in np.flatnonzero(close):
                 self._guard(world, relations, pairs.at(guarded[n]), plans, cap, clear,
                             None if occ is None else tuple(float(x[n]) for x in occ))
-        return self._enforce(decisions, cap, leader_cap, clear)
+        return self._enforce(decisions, cap, leader_cap, clear, brakes)
+
+    def _brake(self, world: World, k: int) -> float:
+        """[m/s^2] (< 0) the hardest braking the filter counts on for vehicle k: the model's
+        ``a_min``, or its vType's decel where that is weaker."""
+        return world.accel_limits(k, self.problem.a_min, self.problem.a_max)[0]
+
+    def _brakes(self, world: World) -> dict[str, float]:
+        """:meth:`_brake` per vehicle id; empty (``a_min`` for all) when the World carries no decel."""
+        return {} if world.decel is None else {vid: self._brake(world, k) for k, vid in enumerate(world.ids)}
 
     def _maybe_close(self, world: World, relations: Relations, guarded: np.ndarray,
                      plans: Mapping[str, Plan]) -> tuple[np.ndarray, tuple | None]:
@@ -262,12 +278,13 @@ class SafetyFilter:
                 continue
             length = world.length_of(lead.vehicle, self.model.vehicle_length)  # [m] the leader's body
             gap = lead.gap - length - st.safety_margin  # [m] bumper to bumper, less margin
-            v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self.problem.a_min, self.period)
+            v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self._brake(world, k), self.period,
+                                       -self._brake(world, lead.vehicle))
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k])) / self.period)
         return cap
 
     def _enforce(self, decisions: Decisions, cap: dict[str, float], leader_cap: dict[str, float],
-                 clear: set[str]) -> frozenset[str]:
+                 clear: set[str], brakes: Mapping[str, float]) -> frozenset[str]:
         st = self.settings
         held = set()
         for vid in clear:
@@ -279,7 +296,7 @@ class SafetyFilter:
                 self.cleared += 1
         for vid, limit in cap.items():
             if vid in decisions.accel and limit < decisions.accel[vid]:
-                decisions.accel[vid] = max(limit, self.problem.a_min)
+                decisions.accel[vid] = max(limit, brakes.get(vid, self.problem.a_min))
                 self.filtered += 1
                 if limit < leader_cap.get(vid, math.inf):  # held back at a crossing
                     held.add(vid)
@@ -329,13 +346,13 @@ class SafetyFilter:
         if world.is_human(lower_first[1].k) and self._would_stop_in(world, k, lower_first[0].enter):
             clear.add(ids[k])  # holding back would leave it standing in the human's way: drive out
             return
-        cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self.problem.a_min, -float(world.v[k]) / self.period))
+        cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self._brake(world, k), -float(world.v[k]) / self.period))
 
     def _would_stop_in(self, world: World, k: int, enter: float) -> bool:
-        """Whether vehicle k, braking as hard as it may (|a_min| [m/s^2]) after one control period,
-        comes to a stop at or past arc length ``enter`` [m]: in the crossing it was to stay out of."""
+        """Whether vehicle k, braking as hard as it may (:meth:`_brake` [m/s^2]) after one control
+        period, comes to a stop at or past arc length ``enter`` [m]: in the crossing it was to stay out of."""
         s, v = float(world.s[k]), float(world.v[k])  # [m], [m/s]
-        return s + v * self.period + v * v / (2.0 * -self.problem.a_min) >= enter
+        return s + v * self.period + v * v / (2.0 * -self._brake(world, k)) >= enter
 
     def _hold_for_human(self, world: World, relations: Relations, lat: Lateral, plans: Mapping[str, Plan],
                         cap: dict[str, float]) -> None:
@@ -355,10 +372,11 @@ class SafetyFilter:
             if s_k >= zone_k[0] or not self._human_stop(world, h, zone_h, float(self.s_wait[rows.pidx[rh]]),
                                                         plans.get(world.ids[k]), zone_k):
                 continue
+            brake = self._brake(world, k)  # [m/s^2]
             a = stopping_acceleration(s_k, v_k, float(self.s_stop[rows.pidx[row]]) - st.safety_margin)
             if a is None:  # at (or just past) its stop line: stay there
-                a = max(self.problem.a_min, -v_k / self.period) if v_k < st.clear_speed else self.problem.a_min - 1.0
-            if a >= self.problem.a_min:
+                a = max(brake, -v_k / self.period) if v_k < st.clear_speed else brake - 1.0
+            if a >= brake:
                 cap[world.ids[k]] = min(cap.get(world.ids[k], math.inf), a)
 
     def _human_stop(self, world: World, h: int, zone_h: tuple[float, float], s_wait: float,
@@ -422,7 +440,7 @@ class SafetyFilter:
 
     def human_committed(self, world: World, k: int, enter: float) -> bool:
         """Whether human k can no longer stop before arc length ``enter`` [m]: its braking distance
-        at the model's hardest braking |a_min| [m/s^2], after a control period at its present
+        at the hardest braking the filter counts on (:meth:`_brake` [m/s^2]), after a control period at its present
         speed (it reacts no faster than the controller), reaches past it. A standing human
         (below ``clear_speed``) is not committed: it starts again only when SUMO lets it."""
         if float(world.v[k]) < self.settings.clear_speed:  # standing (at its stop line, held by SUMO's right of way)
@@ -442,6 +460,6 @@ class SafetyFilter:
             if target <= s_k:
                 continue
             a = stopping_acceleration(s_k, v_k, target)
-            if a is not None and a >= self.problem.a_min:
+            if a is not None and a >= self._brake(world, k):
                 return a
-        return max(self.problem.a_min, -v_k / self.period) if v_k < 0.1 else None
+        return max(self._brake(world, k), -v_k / self.period) if v_k < 0.1 else None

@@ -1,5 +1,7 @@
 """SafetyFilter as a unit: crossings, the entry queue, the box rule and its counters."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -78,6 +80,38 @@ def test_the_entry_queue_and_the_box_rule(paths, movements, conflict_table):
     assert f.cleared == 1 and f.filtered == 1
     f.release("A")
     assert f.entered == {"B": 1.0}
+
+
+def test_a_vehicle_with_weak_brakes_is_guarded_by_its_own_decel(paths, movements, conflict_table):
+    """The crossing above: S needs -2 m/s^2 to stop before its zone. With its vType's decel at
+    1.5 m/s^2 it cannot, so the filter does not count on it: L, ranked first, yields instead and
+    S keeps its plan. Behind a standing leader, a follower at 4 m/s that wants +2.5 m/s^2 gets it
+    with the model's 4 m/s^2 braking, and is capped to Krauss' safe speed for b = 2 (+0.47 m/s^2)
+    when its vType brakes at 2 m/s^2."""
+    t = conflict_table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    s_l, s_s = t.zone_in[p, q] - 16.0, t.zone_in[q, p] - 17.0
+    world = make_world(paths, 0.0, [("L", LEFT, s_l, 8.0), ("S", STRAIGHT, s_s, 8.0)])
+    world = dataclasses.replace(world, decel=np.array([4.0, 1.5]), accel=np.array([2.5, 2.5]))
+    hold = np.zeros(PROBLEM.steps)
+    plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
+    d = Decisions(accel={"L": 0.0, "S": 0.0})
+    held = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1).apply(world, _relations(world, movements, t), plans, {}, d)
+    assert d.accel["S"] == 0.0 and d.accel["L"] < 0.0 and held == {"L"}
+
+    lane = "south_middle_straight_middle"
+    s_stop = paths[lane].s_stop
+    for decel, capped in ((4.0, False), (2.0, True)):
+        world = make_world(paths, 0.0, [("lead", lane, s_stop - 30.0, 0.0), ("follow", lane, s_stop - 40.0, 4.0)])
+        world = dataclasses.replace(world, decel=np.array([4.0, decel]), accel=np.array([2.5, 2.5]))
+        plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), hold, PROBLEM.dt)
+                 for k, v in enumerate(world.ids)}
+        d = Decisions(accel={"lead": 0.0, "follow": 2.5})
+        SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1).apply(world, _relations(world, movements, t), plans, {}, d)
+        gap = 10.0 - MODEL.vehicle_length - GS.safety_margin  # [m]
+        v_safe = -decel * 0.1 + np.sqrt((decel * 0.1) ** 2 + 2 * decel * gap)  # [m/s]: 5.6 at b = 4, 4.05 at b = 2
+        assert d.accel["follow"] == pytest.approx(min(2.5, (v_safe - 4.0) / 0.1))
+        assert (d.accel["follow"] < 1.0) == capped
 
 
 def test_a_follower_is_capped_at_krauss_safe_speed(paths, movements, conflict_table):
