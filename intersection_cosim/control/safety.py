@@ -335,7 +335,8 @@ class SafetyFilter:
                         clear.add(ids[other.k])
                     return
                 continue
-            a = self._stay_out(world, c.k, float(self.s_stop[relations.rows.pidx[c.row]]), c.enter)
+            margin = st.human_margin if world.is_human(lower_first[1 - n].k) else st.safety_margin  # [m]
+            a = self._stay_out(world, c.k, float(self.s_stop[relations.rows.pidx[c.row]]), c.enter, margin)
             if a is not None:
                 cap[ids[c.k]] = min(cap.get(ids[c.k], math.inf), a)
                 other = lower_first[1]
@@ -395,7 +396,12 @@ class SafetyFilter:
             stop_h = s_h + v_h * v_h / (2.0 * -a_h)  # where it will stop
         elif s_h < s_wait and zone_h[0] <= s_wait < zone_h[1] and plan_k is not None:
             in_h, _ = occupancy(self._plan_of(world, h, {}), *zone_h)
+            if math.isinf(in_h):  # beyond the horizon: at its present speed (its forecast is no slower)
+                in_h = time_to_conflict_point(zone_h[0] - s_h, v_h, self.model.tcp_speed_floor)
             _, out_k = occupancy(plan_k, *zone_k)
+            if math.isinf(out_k):  # beyond the horizon: on from the plan's end at its end speed
+                out_k = plan_k.steps * plan_k.dt + time_to_conflict_point(
+                    zone_k[1] - float(plan_k.positions[-1]), float(plan_k.speeds[-1]), self.model.tcp_speed_floor)
             return out_k + st.safety_time_gap > in_h
         else:
             return False
@@ -429,9 +435,10 @@ class SafetyFilter:
         first out, like a queue: the queue holds even against a game's order, or waits could
         close a cycle), ahead of every vehicle not yet in. A human not yet in ranks ahead of every AV
         not yet in (it will not yield to them), behind those inside (SUMO makes it wait for them),
-        unless it cannot stop before the crossing starting at ``enter`` [m] any more: then it ranks
-        first, like a vehicle SUMO drives again."""
-        if world.role[k] == "outside" or (world.is_human(k) and self.human_committed(world, k, enter)):
+        unless it cannot stop before the crossing starting at ``enter`` [m] any more, or stands in
+        it (:meth:`_stands_in`): then it ranks first, like a vehicle SUMO drives again."""
+        if world.role[k] == "outside" or (world.is_human(k) and (self.human_committed(world, k, enter)
+                                                                 or self._stands_in(world, k, enter))):
             return (-1, 0.0, world.ids[k])
         entered = self.entered.get(world.ids[k])
         if entered is not None:
@@ -447,16 +454,22 @@ class SafetyFilter:
             return False
         return self._would_stop_in(world, k, enter)
 
-    def _stay_out(self, world: World, k: int, s_stop: float, enter: float) -> float | None:
+    def _stands_in(self, world: World, k: int, enter: float) -> bool:
+        """Whether vehicle k stands (below ``clear_speed``) with its front at or past ``enter`` [m],
+        in the crossing: it blocks the crossing whatever its rank (a human there, held by SUMO for
+        the opposing stream at its waiting position, is run into by an AV that drives on)."""
+        return float(world.v[k]) < self.settings.clear_speed and float(world.s[k]) >= enter
+
+    def _stay_out(self, world: World, k: int, s_stop: float, enter: float, margin: float) -> float | None:
         """[m/s^2] the acceleration that keeps vehicle k out of a zone starting at ``enter`` [m]:
-        stop at its stop line (less the margin) if it has not reached it and can, else before
-        the zone (less the margin, or at its edge when already within the margin); None if it
-        cannot any more (inside, or too fast)."""
+        stop at its stop line (less ``safety_margin``) if it has not reached it and can, else
+        before the zone (less ``margin`` [m], else less ``safety_margin``, or at its edge when
+        already within them); None if it cannot any more (inside, or too fast)."""
         st = self.settings
         s_k, v_k = float(world.s[k]), float(world.v[k])
         if s_k >= enter:
             return None
-        for target in (s_stop - st.safety_margin, enter - st.safety_margin, enter - 0.05):
+        for target in (s_stop - st.safety_margin, enter - margin, enter - st.safety_margin, enter - 0.05):
             if target <= s_k:
                 continue
             a = stopping_acceleration(s_k, v_k, target)

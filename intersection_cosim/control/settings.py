@@ -62,13 +62,16 @@ class SafetySettings:
     clear_speed: float = 1.0  # [m/s]
     human_brake: float = 2.0  # [m/s^2] a human braking at least this hard (or standing) where it will
     #                           stop inside a crossing holds the AVs of that crossing at their stop lines
+    human_margin: float = 2.0  # [m] an AV in the junction yielding to a human stops this far before
+    #                            their crossing zone (SUMO's conflict areas are lane-wide, wider than
+    #                            a body, and SUMO holds a human for a vehicle whose front is in one)
     exit_room: bool = True  # [-] don't block the box: hold a vehicle at its stop line while its exit
     #                         lane has less than vehicle_length + exit_min_gap free (control/exit_room.py)
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
 
     def check(self) -> list[tuple[str, str]]:
         problems = non_negative(self, "safety_time_gap", "safety_margin", "clear_accel", "clear_speed", "exit_min_gap",
-                                "human_brake")
+                                "human_brake", "human_margin")
         if self.yield_order not in YIELD_ORDERS:
             problems.append(("yield_order", f"must be one of {', '.join(YIELD_ORDERS)}"))
         return problems

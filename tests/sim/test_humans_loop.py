@@ -93,3 +93,64 @@ def test_high_mixed_demand_drains(tmp_path):
     counts = summary["counts"]
     assert counts["collisions"] == 0
     assert counts["departed"] == counts["arrived"] == counts["vehicles"] > 150
+
+
+WAITING = """
+[scenario]
+name = "waiting_position"
+duration = 20.0
+drain = 40.0
+
+[controller]
+kind = "nash"
+
+[[vehicle]]
+id = "H"
+approach = "north"
+lane = "inner"
+distance = 60.0
+movement = "left"
+speed = 10.0
+kappa = 0.5
+driver = "human"
+
+[[vehicle]]
+id = "O"
+approach = "south"
+lane = "inner"
+distance = {d_o}
+movement = "straight"
+speed = 10.0
+kappa = 0.5
+driver = "human"
+
+[[vehicle]]
+id = "W"
+approach = "west"
+lane = "inner"
+distance = {d_w}
+movement = "left"
+speed = {v_w}
+kappa = 0.5
+"""
+
+
+@pytest.mark.parametrize("d_o, d_w, v_w", [(70.0, 45.0, 8.0), (80.0, 50.0, 8.0), (90.0, 55.0, 10.0)])
+def test_an_av_keeps_out_of_a_crossing_where_a_human_will_wait(tmp_path, d_o, d_w, v_w):
+    """A human H turning left from the north stops at its waiting position (SUMO's internal
+    junction) for the opposing human O, with its body inside the crossing of the AV W turning left
+    from the west. Before the filter knew waiting positions, W entered, yielded inside the box
+    and then either drove into the standing H (the first case: a junction collision) or stood in
+    H's lane while SUMO held H for it (the other two: nothing arrived). Now W waits at its stop
+    line: every vehicle arrives, no collision, and W is still on its approach lane while H
+    stands in the junction."""
+    (tmp_path / "w.toml").write_text(textwrap.dedent(WAITING.format(d_o=d_o, d_w=d_w, v_w=v_w)))
+    summary = run_scenario(load_scenario(tmp_path / "w.toml"), tmp_path / "run")
+    assert summary["counts"]["collisions"] == 0
+    assert summary["counts"]["arrived"] == summary["counts"]["departed"] == 3
+    traj = pd.read_csv(tmp_path / "run" / "trajectories.csv")
+    h = traj[(traj.vehicle == "H") & traj.lane.str.startswith(":")]
+    standing = h[h.speed < 0.1].time
+    assert len(standing) > 5  # H does wait inside the junction
+    w = traj[(traj.vehicle == "W") & traj.time.isin(standing)]
+    assert (w.lane == "west_in_2").all()  # W is still on its approach lane while H stands
