@@ -40,7 +40,10 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   that cannot holds back as hard as it may, unless that would stop it inside the crossing: then
   it drives out, as SUMO's human brakes for a vehicle in its way), behind every vehicle already
   in the junction (SUMO's own model makes a human wait for a vehicle in its crossing, and that AV
-  drives out by the box rule); inside, it ranks by its entry like an AV. The filter never caps a human. An AV not yet
+  drives out by the box rule); inside, it ranks by its entry like an AV, and a human standing in
+  a crossing ranks first there (an AV never drives into it). An AV yielding to a human stops
+  ``human_margin`` before the crossing (SUMO holds a human for a vehicle whose front is in its
+  lane-wide conflict area). The filter never caps a human. An AV not yet
   in the junction waits at its stop line while a human of its crossing stands in that crossing,
   brakes (``SafetySettings.human_brake``) to stop in it, or may be held in it at its waiting
   position (an internal junction of SUMO's net, where a left turn waits for the opposing stream;
