@@ -31,7 +31,7 @@ class PolicySettings:
     solo_speed_tol: float = 0.05  # [m/s] ... or when its measured speed is this far from its shifted
     #                               plan's (it left the plan; not counted while the filter holds it)
     solo_position_tol: float = 0.5  # [m] ... or its measured position this far from the plan's
-    solo_reuse_residual: float = 0.0  # [m/s^2] a capped (real-time) SQP step that moved the plan
+    solo_reuse_residual: float = 0.3  # [m/s^2] a capped (real-time) SQP step that moved the plan
     #                                   less than this, or than nash_tol, counts as converged: its
     #                                   plan may be kept, shifted, instead of iterating on at once
     #                                   (0: only nash_tol; free_resolve_steps still forces a solve)

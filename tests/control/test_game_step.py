@@ -236,9 +236,11 @@ def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_s
 def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeypatch):
     """Real-time iteration: with solo_max_iter = 1 a follower closing fast on a slow leader does
     not converge in one SQP step; it applies that plan and solves again (from it) at the next
-    period, until it has converged: a step that moved its plan less than nash_tol."""
+    period, until it has converged: a step that moved its plan less than nash_tol (with
+    solo_reuse_residual 0, so that nash_tol alone decides)."""
 
-    c = _nash_controller(paths, net_file, settings=GameControllerSettings(policy=PolicySettings(solo_max_iter=1)))
+    c = _nash_controller(paths, net_file, settings=GameControllerSettings(
+        policy=PolicySettings(solo_max_iter=1, solo_reuse_residual=0.0)))
     solves = []  # (control step, status, iterations) of the follower's solo solves
     real = solo_module.solo_response
     step = 0
