@@ -28,6 +28,13 @@ class PolicySettings:
     #                         goes on from it, shifted, at the next step; games are not capped)
     solo_leader_tol: float = 0.1  # [m] and [m/s]: a solo vehicle solves again when its leader's
     #                               predicted positions (speeds) moved more than this since its solve
+    solo_speed_tol: float = 0.05  # [m/s] ... or when its measured speed is this far from its shifted
+    #                               plan's (it left the plan; not counted while the filter holds it)
+    solo_position_tol: float = 0.5  # [m] ... or its measured position this far from the plan's
+    solo_reuse_residual: float = 0.3  # [m/s^2] a capped (real-time) SQP step that moved the plan
+    #                                   less than this, or than nash_tol, counts as converged: its
+    #                                   plan may be kept, shifted, instead of iterating on at once
+    #                                   (0: only nash_tol; free_resolve_steps still forces a solve)
     lane_choice_range: float = 30.0  # [m] a vehicle chooses among its exit lanes only within this
     #                                  distance of its stop line (v_max * horizon: what the plan
     #                                  reaches); farther out it keeps its current exit lane
@@ -39,7 +46,8 @@ class PolicySettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "solo_max_iter", "lane_choice_period")
-        problems += non_negative(self, "solo_leader_tol", "lane_choice_range", "anytime_reserve")
+        problems += non_negative(self, "solo_leader_tol", "solo_speed_tol", "solo_position_tol", "solo_reuse_residual",
+                                 "lane_choice_range", "anytime_reserve")
         if not self.anytime_reserve < 1:
             problems.append(("anytime_reserve", "must be < 1"))
         return problems

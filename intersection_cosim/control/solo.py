@@ -34,8 +34,6 @@ from intersection_cosim.network.movements import Movements
 
 log = logging.getLogger(__name__)
 
-OFF_PLAN_SPEED = 0.05  # [m/s] a measured speed this far from the plan's means the vehicle left it
-
 
 class SoloOutcome(NamedTuple):
     plan: Plan
@@ -117,12 +115,13 @@ class SoloPlanner:
                         world.time, vid, result.message)
             self.forget(vid)
             return safe_plan(problems[choice].players[0], self.settings.games)
+        settled = max(self.settings.solver.nash_tol, self.policy.solo_reuse_residual)  # [m/s^2]
         if (result.status != "converged" and vid not in held_before
-                and not (result.residuals and result.residuals[-1] < self.settings.solver.nash_tol)):
+                and not (result.residuals and result.residuals[-1] < settled)):
             # real-time iteration: the capped SQP continues from this plan at the next step. A
-            # capped step that moved the plan less than nash_tol counts as converged, and so
-            # does the plan of a vehicle the filter holds back (its plan is only the intent the
-            # filter checks)
+            # capped step that moved the plan less than nash_tol (or solo_reuse_residual) counts
+            # as converged, and so does the plan of a vehicle the filter holds back (its plan is
+            # only the intent the filter checks)
             self.forget(vid)
         else:
             self._last[vid] = _LastSolve(0, choice[0], problems[choice].players[0].leader)
@@ -133,7 +132,8 @@ class SoloPlanner:
         """The last plan, shifted and re-anchored at the measured state, when the problem is the
         last solve's problem moved on in time; None when it must be solved again.
 
-        It is the same problem when the measured state is where the last plan put it and the
+        It is the same problem when the measured state is where the last plan put it (within
+        ``solo_position_tol`` [m] and ``solo_speed_tol`` [m/s]) and the
         leader's prediction is the one it answered (shifted, within ``solo_leader_tol``, or
         moved only where J_log is zero along the plan), and the shifted plan stays within the
         speed limits; at the latest after ``free_resolve_steps`` steps it is solved again. A
@@ -151,7 +151,9 @@ class SoloPlanner:
             return None
         plan = self.memory.shifted(plan)
         v_cap = player_now.v_max if player_now.v_max is not None else self.model.v_max  # [m/s]
-        off_plan = abs(plan.speeds[0] - float(world.v[k])) > OFF_PLAN_SPEED and vid not in held_before
+        off_plan = vid not in held_before and (
+            abs(plan.speeds[0] - float(world.v[k])) > self.policy.solo_speed_tol
+            or abs(plan.positions[0] - float(world.s[k])) > self.policy.solo_position_tol)
         if off_plan or plan.speeds.max() > v_cap + 1e-6:
             return None
         if player_now.leader is not None and self._leader_moved(plan, last, player_now.leader,

@@ -236,9 +236,11 @@ def test_a_leader_prediction_that_moved_where_j_log_is_zero_does_not_trigger_a_s
 def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeypatch):
     """Real-time iteration: with solo_max_iter = 1 a follower closing fast on a slow leader does
     not converge in one SQP step; it applies that plan and solves again (from it) at the next
-    period, until it has converged: a step that moved its plan less than nash_tol."""
+    period, until it has converged: a step that moved its plan less than nash_tol (with
+    solo_reuse_residual 0, so that nash_tol alone decides)."""
 
-    c = _nash_controller(paths, net_file, settings=GameControllerSettings(policy=PolicySettings(solo_max_iter=1)))
+    c = _nash_controller(paths, net_file, settings=GameControllerSettings(
+        policy=PolicySettings(solo_max_iter=1, solo_reuse_residual=0.0)))
     solves = []  # (control step, status, iterations) of the follower's solo solves
     real = solo_module.solo_response
     step = 0
@@ -425,3 +427,65 @@ def test_a_step_reports_the_qps_it_solved(controller, paths, monkeypatch):
     assert d.qp_solves == len(calls) >= 2 * d.iterations  # two players' best responses per iteration
     world.role = ["outside", "outside"]
     assert controller.decide(world, time.perf_counter() + 10.0).qp_solves == 0
+
+
+def test_a_solo_vehicle_displaced_from_its_plan_beyond_solo_position_tol_solves_again(paths, net_file,
+                                                                                        monkeypatch):
+    """The reuse test compares the measured position with the shifted plan's: within
+    solo_position_tol (0.5 m) the plan is kept (re-anchored), beyond it the vehicle solves again."""
+    calls = _count_solo_solves(monkeypatch)
+    c = _nash_controller(paths, net_file)
+    tol = c.settings.policy.solo_position_tol  # [m]
+    s_stop = paths[LANE].s_stop
+
+    def step(t, offset):
+        """Both vehicles where their plans put them, the follower ``offset`` [m] ahead of it."""
+        lead, follow = c.memory.plans["lead"], c.memory.plans["follow"]
+        w = _world(paths, t, [("lead", LANE, float(lead.positions[1]), float(lead.speeds[1])),
+                              ("follow", LANE, float(follow.positions[1]) + offset, float(follow.speeds[1]))])
+        c.decide(w, time.perf_counter() + 10.0)
+
+    c.decide(_world(paths, 0.0, [("lead", LANE, s_stop - 60.0, 8.0), ("follow", LANE, s_stop - 80.0, 8.0)]),
+             time.perf_counter() + 10.0)
+    assert calls.count("follow") == 1
+    step(0.1, 0.6 * tol)  # within the tolerance: kept
+    assert calls.count("follow") == 1
+    step(0.2, 2.0 * tol)  # beyond it: solved again
+    assert calls.count("follow") == 2
+
+
+def _capped_follower_solves(paths, net_file, monkeypatch, policy: PolicySettings) -> list[int]:
+    """The control steps (of 8) at which a follower closing fast on a slow leader solves alone."""
+    c = _nash_controller(paths, net_file, settings=GameControllerSettings(policy=policy))
+    steps, now = [], [0]
+    real = solo_module.solo_response
+
+    def recording(problem, *a, **k):
+        if problem.players[0].name == "follow":
+            steps.append(now[0])
+        return real(problem, *a, **k)
+
+    monkeypatch.setattr(solo_module, "solo_response", recording)
+    s_stop = paths[LANE].s_stop
+    world = _world(paths, 0.0, [("lead", LANE, s_stop - 60.0, 3.0), ("follow", LANE, s_stop - 75.0, 9.0)])
+    for n in range(8):
+        now[0] = n
+        c.decide(world, time.perf_counter() + 10.0)
+        lead, follow = c.memory.plans["lead"], c.memory.plans["follow"]
+        world = _world(paths, 0.1 * (n + 1), [("lead", LANE, float(lead.positions[1]), float(lead.speeds[1])),
+                                              ("follow", LANE, float(follow.positions[1]), float(follow.speeds[1]))])
+    return steps
+
+
+def test_solo_reuse_residual_lets_a_nearly_settled_capped_plan_be_kept(paths, net_file, monkeypatch):
+    """A capped SQP step that moved the plan less than solo_reuse_residual counts as converged:
+    the next period keeps the plan instead of iterating on. With a residual nothing reaches
+    (0: nash_tol only) the follower iterates every period until it converges; with one every
+    step is under, it solves only when free_resolve_steps is due."""
+    strict = _capped_follower_solves(paths, net_file, monkeypatch,
+                                     PolicySettings(solo_max_iter=1, solo_reuse_residual=0.0, free_resolve_steps=5))
+    loose = _capped_follower_solves(paths, net_file, monkeypatch,
+                                    PolicySettings(solo_max_iter=1, solo_reuse_residual=100.0, free_resolve_steps=5))
+    assert strict[:2] == [0, 1]  # unconverged at step 0: solved again at once
+    assert loose == [0, 5]  # kept for free_resolve_steps - 1 periods, then solved again
+    assert len(loose) < len(strict)

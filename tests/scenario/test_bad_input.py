@@ -70,6 +70,8 @@ CASES = [
      'safety_margin = 2.0\n' + GOOD_VEHICLE, "controller.policy.safety_margin", "2.0: moved to [controller.safety]"),
     ("a policy key in the solver table", HEADER + '[controller]\nkind = "stackelberg"\n[controller.solver]\n'
      'solo_max_iter = 2\n' + GOOD_VEHICLE, "controller.solver.solo_max_iter", "2: moved to [controller.policy]"),
+    ("a negative solo_reuse_residual", HEADER + '[controller]\nkind = "nash"\n[controller.policy]\n'
+     'solo_reuse_residual = -0.3\n' + GOOD_VEHICLE, "controller.policy.solo_reuse_residual", "-0.3"),
     ("an unknown key of a sub-table", HEADER + '[controller]\nkind = "nash"\n[controller.safety]\ngap = 2.0\n'
      + GOOD_VEHICLE, "controller.safety.gap", "2.0"),
     ("a bad value in a sub-table", HEADER + '[controller]\nkind = "nash"\n[controller.safety]\nyield_order = "fifo"\n'
