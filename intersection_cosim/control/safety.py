@@ -40,8 +40,7 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   that cannot holds back as hard as it may, unless that would stop it inside the crossing: then
   it drives out, as SUMO's human brakes for a vehicle in its way), behind every vehicle already
   in the junction (SUMO's own model makes a human wait for a vehicle in its crossing, and that AV
-  drives out by the box rule); inside, it ranks by its entry like an AV, and a human standing in
-  a crossing ranks first there (an AV never drives into it). An AV yielding to a human stops
+  drives out by the box rule); inside, it ranks by its entry like an AV. An AV yielding to a human stops
   ``human_margin`` before the crossing (SUMO holds a human for a vehicle whose front is in its
   lane-wide conflict area). The filter never caps a human. An AV not yet
   in the junction waits at its stop line while a human of its crossing stands in that crossing,
@@ -438,10 +437,9 @@ class SafetyFilter:
         first out, like a queue: the queue holds even against a game's order, or waits could
         close a cycle), ahead of every vehicle not yet in. A human not yet in ranks ahead of every AV
         not yet in (it will not yield to them), behind those inside (SUMO makes it wait for them),
-        unless it cannot stop before the crossing starting at ``enter`` [m] any more, or stands in
-        it (:meth:`_stands_in`): then it ranks first, like a vehicle SUMO drives again."""
-        if world.role[k] == "outside" or (world.is_human(k) and (self.human_committed(world, k, enter)
-                                                                 or self._stands_in(world, k, enter))):
+        unless it cannot stop before the crossing starting at ``enter`` [m] any more: then it ranks
+        first, like a vehicle SUMO drives again."""
+        if world.role[k] == "outside" or (world.is_human(k) and self.human_committed(world, k, enter)):
             return (-1, 0.0, world.ids[k])
         entered = self.entered.get(world.ids[k])
         if entered is not None:
@@ -456,12 +454,6 @@ class SafetyFilter:
         if float(world.v[k]) < self.settings.clear_speed:  # standing (at its stop line, held by SUMO's right of way)
             return False
         return self._would_stop_in(world, k, enter)
-
-    def _stands_in(self, world: World, k: int, enter: float) -> bool:
-        """Whether vehicle k stands (below ``clear_speed``) with its front at or past ``enter`` [m],
-        in the crossing: it blocks the crossing whatever its rank (a human there, held by SUMO for
-        the opposing stream at its waiting position, is run into by an AV that drives on)."""
-        return float(world.v[k]) < self.settings.clear_speed and float(world.s[k]) >= enter
 
     def _stay_out(self, world: World, k: int, s_stop: float, enter: float, margin: float) -> float | None:
         """[m/s^2] the acceleration that keeps vehicle k out of a zone starting at ``enter`` [m]:

@@ -141,7 +141,8 @@ def test_an_av_keeps_out_of_a_crossing_where_a_human_will_wait(tmp_path, d_o, d_
     junction) for the opposing human O, with its body inside the crossing of the AV W turning left
     from the west. Before the filter knew waiting positions, W entered, yielded inside the box
     and then either drove into the standing H (the first case: a junction collision) or stood in
-    H's lane while SUMO held H for it (the other two: nothing arrived). Now W waits at its stop
+    H's lane while SUMO held H for it (the other two: nothing arrived). Each case fails on that
+    filter. Now W waits at its stop
     line: every vehicle arrives, no collision, and W is still on its approach lane while H
     stands in the junction."""
     (tmp_path / "w.toml").write_text(textwrap.dedent(WAITING.format(d_o=d_o, d_w=d_w, v_w=v_w)))
