@@ -30,8 +30,9 @@ class ModelSettings:
     # [s] fall of the preview time per unit of kappa: vehicle i previews
     # t_p^i = max(t_p_min, t_p + t_p_kappa (0.5 - kappa^i)) (Eq. 7 gives each AV its own t_p^i), so
     # a cautious driver sees a conflict, and plays its game, earlier than an aggressive one
-    # (0: every vehicle t_p; issue 20, docs/design.md)
-    t_p_kappa: float = 0.0
+    # (0: every vehicle t_p). 4: kappa 0.2 previews 5.2 s, 0.8 2.8 s; Case 1 B's yielders play
+    # from the first step instead of being braked by the safety filter (issue 20, docs/design.md)
+    t_p_kappa: float = 4.0
     t_p_min: float = 1.0  # [s] the shortest preview time t_p^i
     # The prediction is along the paths (models/prediction.py), in closed form: no sampled rollout
     # or polynomial fit reads these two. They stay so scenario files that set them still load and
