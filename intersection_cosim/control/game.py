@@ -111,6 +111,8 @@ class GameController:
         self._held_before: frozenset[str] = frozenset()  # ... at the step before
         self._decided_at: float | None = None  # [s] time of the last decide call
         self._applied: dict[str, Plan] = {}  # plans applied before that call
+        # sorted vehicle-id pairs the filter had to guard (PolicySettings.filter_event): they play
+        self._events: set[tuple[str, str]] = set()
 
     # ------------------------------------------------------------------ setup
     def setup(self, context: ControlContext) -> None:
@@ -186,6 +188,9 @@ class GameController:
         now = {world.ids[k] for k in active}
         release = sorted(self.controlled - now)
         self.controlled = now
+        if self._events and release:
+            gone = set(release)
+            self._events = {e for e in self._events if not (e[0] in gone or e[1] in gone)}
         for vid in release:
             self.memory.forget(vid)
             self.solo.forget(vid)
@@ -195,7 +200,7 @@ class GameController:
 
     def _relations(self, world: World, active: set[int]) -> Relations:
         return step_relations(world, active, self.ctx.movements, self.table, self.model, self.ctx.etm, self.memory.options,
-                              self.settings.policy.lane_choice_range)
+                              self.settings.policy.lane_choice_range, frozenset(self._events))
 
     def _play_games(self, world: World, relations: Relations, options, cutoff: float,
                     decisions: Decisions) -> dict[int, list[Choice]]:
@@ -244,9 +249,14 @@ class GameController:
 
     def _filter(self, world: World, relations: Relations, decisions: Decisions) -> None:
         if self.settings.safety.safety_filter:
+            ids = world.ids  # the pairs that play their game (none in a fallback step: stale plans)
+            games = frozenset() if decisions.fallback else frozenset(
+                (min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())
             held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
-                                     self._exit_holds(world))
+                                     self._exit_holds(world), games)
             self._held = self._held | held
+            if self.settings.policy.filter_event:
+                self._events |= self.safety.events
 
     def _exit_holds(self, world: World) -> dict[str, float]:
         """[m/s^2] caps that keep vehicles whose exit lane is full at their stop lines."""

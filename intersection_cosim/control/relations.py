@@ -167,16 +167,18 @@ def build_rows(world: World, active: set[int], movements: Movements, table: Conf
 
 def step_relations(world: World, active: set[int], movements: Movements, table: ConflictTable,
                    model: ModelSettings, etm: bool, held: Mapping[str, str],
-                   lane_choice_range: float) -> Relations:
-    """The step's rows, leaders and lateral pairs (ETM on or off)."""
+                   lane_choice_range: float, events: frozenset[tuple[str, str]] = frozenset()) -> Relations:
+    """The step's rows, leaders and lateral pairs (ETM on or off). ``events``: vehicle-id pairs
+    (sorted) that play their game whatever Gamma_cp says (the safety filter had to hold one of
+    them back for the other: control/game.py)."""
     rows = build_rows(world, active, movements, table, held, lane_choice_range)
-    leaders, lateral = _pair_relations(world, rows, active, table, model, etm)
+    leaders, lateral = _pair_relations(world, rows, active, table, model, etm, events)
     row_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
     return Relations(rows, leaders, lateral, row_of)
 
 
 def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictTable, model: ModelSettings,
-                    etm: bool) -> tuple[dict[int, Leader], LateralPairs]:
+                    etm: bool, events: frozenset[tuple[str, str]] = frozenset()) -> tuple[dict[int, Leader], LateralPairs]:
     """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM.
 
     A lateral pair stays in the list until one of the two has cleared the crossing (its front
@@ -195,8 +197,19 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     d = (risk.s_cp_i - s_now[0], risk.s_cp_j - s_now[1])
     bodies = (world.lengths(model.vehicle_length), world.widths(model.vehicle_width))  # [m] per World index
     leaders = _leaders(risk, d, k_of, model.conflict_clearance, bodies[0])
-    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.human)
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.human,
+                        _event_pairs(risk, k_of, world.ids, events))
     return leaders, lateral
+
+
+def _event_pairs(risk, k_of: np.ndarray, ids, events: frozenset[tuple[str, str]]) -> np.ndarray | None:
+    """(len(risk.i),) bool: the ETM's pairs named in ``events`` (sorted vehicle-id pairs); None
+    when there are none."""
+    if not events:
+        return None
+    a, b = k_of[risk.i], k_of[risk.j]
+    return np.fromiter(((min(ids[x], ids[y]), max(ids[x], ids[y])) in events for x, y in zip(a.tolist(), b.tolist())),
+                       bool, len(a))
 
 
 def _leaders(risk, d, k_of: np.ndarray, clear: float, length: np.ndarray) -> dict[int, Leader]:
@@ -255,10 +268,12 @@ def _zones(table: ConflictTable, p: tuple[np.ndarray, np.ndarray], s_cp: tuple[n
 
 def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
               pidx: np.ndarray, model: ModelSettings, etm: bool,
-              bodies: tuple[np.ndarray, np.ndarray], human: np.ndarray | None) -> LateralPairs:
+              bodies: tuple[np.ndarray, np.ndarray], human: np.ndarray | None,
+              events: np.ndarray | None = None) -> LateralPairs:
     """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
     whose two vehicles have not cleared the crossing (in the ETM's order). ``human``: bool per
-    World vehicle, a human driver (None: none)."""
+    World vehicle, a human driver (None: none); ``events``: bool per ETM pair, fired whatever
+    Gamma_cp says (None: none)."""
     is_active = np.zeros(int(k_of.max()) + 1 if len(k_of) else 0, bool)  # by World index
     is_active[[k for k in active if k < len(is_active)]] = True
     row_active = is_active[k_of]
@@ -277,6 +292,8 @@ def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: Conflic
     open_ = ~((d[0][m] < -clear) | (d[1][m] < -clear))
     live = a_i[m] & a_j[m] & open_
     fired = risk.trigger[m] | (not etm)
+    if events is not None:
+        fired = fired | events[m]
     play = live & fired
     h_i, h_j = (np.zeros(len(m), bool),) * 2 if human is None else (human[k_of[ri]], human[k_of[rj]])
     with_human = open_ & fired & ((a_i[m] & h_j) | (a_j[m] & h_i))

@@ -177,6 +177,10 @@ class SafetyFilter:
         self.entered: dict[str, float] = {}  # [s] when each vehicle entered the junction (the queue)
         self.filtered = 0  # accelerations the filter lowered
         self.cleared = 0  # accelerations the filter raised to clear a crossing (box rule)
+        # sorted vehicle-id pairs of two AVs that may play a game and whose crossing the last
+        # apply() had to guard (one held back): the controller may let them play (control/game.py)
+        self.events: set[tuple[str, str]] = set()
+        self._games: frozenset[tuple[str, str]] = frozenset()  # this apply()'s pairs in a game
 
     def record_entries(self, world: World) -> None:
         """Put vehicles that entered the junction ("passing") into the entry queue."""
@@ -188,17 +192,21 @@ class SafetyFilter:
         self.entered.pop(vehicle, None)
 
     def apply(self, world: World, relations: Relations, plans: Mapping[str, Plan], options: Mapping[str, str],
-              decisions: Decisions, holds: Mapping[str, float] | None = None) -> frozenset[str]:
+              decisions: Decisions, holds: Mapping[str, float] | None = None,
+              games: frozenset[tuple[str, str]] = frozenset()) -> frozenset[str]:
         """Lower (or, by the box rule, raise) ``decisions.accel`` where this step's ``plans``
         would collide; ``options``: the exit lane each vehicle takes; ``holds`` [m/s^2]: caps
         of other rules (e.g. control/exit_room.py's), enforced and seen by the crossings like
-        the filter's own. Returns the vehicles held back at a crossing or by ``holds`` (not only
+        the filter's own; ``games``: sorted vehicle-id pairs that play their game this step
+        (their plans are a game's: their crossing keeps only ``SafetySettings.game_gap_share``
+        of the time gap; none in a fallback step, whose plans are the last ones shifted). Returns the vehicles held back at a crossing or by ``holds`` (not only
         behind a leader).
 
         Two passes: a vehicle braked in the first pass is checked again in the second with its
         braking plan (constant capped deceleration to a stop), so a vehicle made to stop is seen
         by every other crossing it now blocks in the same step.
         """
+        self.events, self._games = set(), games
         rows = relations.rows
         brakes = self._brakes(world)
         chosen = tuple(rows.option[r] == options.get(world.ids[rows.vehicle[r]], rows.option[r])
@@ -263,7 +271,12 @@ class SafetyFilter:
         zone_i, zone_j = pairs.zone_i[guarded], pairs.zone_j[guarded]  # [m]
         (in_i, e1), (out_i, e2) = reach_times(pos, lengths, dt, a, zone_i[:, 0]), reach_times(pos, lengths, dt, a, zone_i[:, 1])
         (in_j, e3), (out_j, e4) = reach_times(pos, lengths, dt, b, zone_j[:, 0]), reach_times(pos, lengths, dt, b, zone_j[:, 1])
-        gap = self.settings.safety_time_gap  # [s]
+        st = self.settings
+        gap = st.safety_time_gap  # [s]
+        if st.game_gap_share != 1.0 and self._games:
+            ids = world.ids
+            in_game = np.fromiter((self._in_game(ids[x], ids[y]) for x, y in zip(ki.tolist(), kj.tolist())), bool, len(ki))
+            gap = np.where(in_game, st.time_gap(True), gap)
         apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
         # usable: both plans there, every time as occupancy() has it, at finite zone edges
         ok = usable[a] & usable[b] & e1 & e2 & e3 & e4 & np.isfinite(zone_i).all(axis=1) & np.isfinite(zone_j).all(axis=1)
@@ -323,8 +336,11 @@ class SafetyFilter:
         else:
             in_i, out_i = occupancy(pi, *lat.zone_i)
             in_j, out_j = occupancy(pj, *lat.zone_j)
-        if in_i >= out_j + st.safety_time_gap or in_j >= out_i + st.safety_time_gap:
+        gap = st.time_gap(self._in_game(ids[ki], ids[kj]))  # [s]
+        if in_i >= out_j + gap or in_j >= out_i + gap:
             return  # the plans keep the crossing clear
+        if lat.live and not (world.is_human(ki) or world.is_human(kj)):
+            self.events.add((min(ids[ki], ids[kj]), max(ids[ki], ids[kj])))
         ti, tj = self._arrival(world, lat, ki, kj, in_i, in_j)
         lower_first = sorted((_Crossing(self._rank(world, ki, ti, lat.zone_i[0]), ki, lat.ri, lat.zone_i[0]),
                               _Crossing(self._rank(world, kj, tj, lat.zone_j[0]), kj, lat.rj, lat.zone_j[0])),
@@ -350,6 +366,10 @@ class SafetyFilter:
             clear.add(ids[k])  # holding back would leave it standing in the human's way: drive out
             return
         cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self._brake(world, k), -float(world.v[k]) / self.period))
+
+    def _in_game(self, a: str, b: str) -> bool:
+        """Whether vehicles ``a`` and ``b`` play their game this step."""
+        return (min(a, b), max(a, b)) in self._games
 
     def _would_stop_in(self, world: World, k: int, enter: float) -> bool:
         """Whether vehicle k, braking as hard as it may (:meth:`_brake` [m/s^2]) after one control

@@ -40,6 +40,10 @@ class PolicySettings:
     #                                  reaches); farther out it keeps its current exit lane
     lane_choice_period: int = 5  # [-] control steps between a vehicle's exit-lane decisions (it
     #                              holds its choice in between; 1 = decide every step)
+    # [-] a pair of AVs whose crossing the safety filter had to guard plays its game from the next
+    # control step on until the crossing is passed, whatever Gamma_cp says (an event of the ETM,
+    # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin
+    filter_event: bool = False
     anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
     #                                and solo solves that would not finish before the rest of the
     #                                budget are deferred (their vehicles keep their last plan, shifted)
@@ -59,6 +63,10 @@ class SafetySettings:
 
     safety_filter: bool = True  # [-] check every applied acceleration against collision
     safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
+    # [-] share of safety_time_gap kept for a pair that plays its game this step (its plans are a
+    # game's; not in a fallback step, whose plans are the last ones shifted; 1: one gap for all): below the full gap the filter leaves the pair's margin to the game's
+    # trade-off (Eq. 13) and only catches what the game misses (issue 20, docs/design.md)
+    game_gap_share: float = 1.0
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
     yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
     #                          junction: "tcp" = smaller time to the crossing at the current speed
@@ -78,11 +86,16 @@ class SafetySettings:
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
 
     def check(self) -> list[tuple[str, str]]:
-        problems = non_negative(self, "safety_time_gap", "safety_margin", "clear_accel", "clear_speed", "exit_min_gap",
-                                "human_brake", "human_margin")
+        problems = [("game_gap_share", "must lie in [0, 1]")] if not 0 <= self.game_gap_share <= 1 else []
+        problems += non_negative(self, "safety_time_gap", "safety_margin", "clear_accel", "clear_speed", "exit_min_gap",
+                                 "human_brake", "human_margin")
         if self.yield_order not in YIELD_ORDERS:
             problems.append(("yield_order", f"must be one of {', '.join(YIELD_ORDERS)}"))
         return problems
+
+    def time_gap(self, play: bool) -> float:
+        """[s] the least time between the occupancies of a pair that plays its game this step (``play``) or not."""
+        return self.safety_time_gap * (self.game_gap_share if play else 1.0)
 
 
 @dataclass(frozen=True)

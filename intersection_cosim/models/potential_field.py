@@ -38,13 +38,22 @@ def field_gain(kappa, settings: ModelSettings):
     return settings.a0 * np.exp(kappa)
 
 
-def preview_amplitude(s, v, kappa, settings: ModelSettings):
-    """Lambda = a (s - v t_p)^2 for 0 <= s <= v t_p, else 0 (Eq. 7 as we read it).
+def preview_time(kappa, settings: ModelSettings):
+    """[s] t_p^i of a vehicle of aggressiveness ``kappa`` [-] (Eq. 7's per-vehicle preview time):
+    t_p + t_p_kappa (0.5 - kappa), at least t_p_min; t_p for all when t_p_kappa = 0."""
+    if settings.t_p_kappa == 0.0:
+        return settings.t_p
+    return np.maximum(settings.t_p_min, settings.t_p + settings.t_p_kappa * (0.5 - np.asarray(kappa, float)))
 
-    ``s`` [m] arc length ahead of the vehicle along its predicted path, ``v`` [m/s].
+
+def preview_amplitude(s, v, kappa, settings: ModelSettings):
+    """Lambda = a (s - v t_p^i)^2 for 0 <= s <= v t_p^i, else 0 (Eq. 7 as we read it).
+
+    ``s`` [m] arc length ahead of the vehicle along its predicted path, ``v`` [m/s]; t_p^i from
+    :func:`preview_time`.
     """
     s = np.asarray(s, float)
-    reach = np.asarray(v, float) * settings.t_p  # [m] preview length
+    reach = np.asarray(v, float) * preview_time(kappa, settings)  # [m] preview length
     inside = (s >= 0.0) & (s <= reach)
     return np.where(inside, field_gain(kappa, settings) * np.square(s - reach), 0.0)
 

@@ -65,7 +65,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from intersection_cosim.models.cost import time_to_conflict_point
-from intersection_cosim.models.potential_field import preview_amplitude
+from intersection_cosim.models.potential_field import preview_amplitude, preview_time
 from intersection_cosim.models.prediction import PairConflicts, conflict_lookup
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_FOLLOWING
@@ -93,7 +93,9 @@ def collision_point_risk(d_i, v_i, kappa_i, d_j, v_j, kappa_j, settings: ModelSe
     field_i = preview_amplitude(reach_i - np.maximum(v_i, floor) * t_j, v_i, kappa_i, settings)
     field_j = preview_amplitude(reach_j - np.maximum(v_j, floor) * t_i, v_j, kappa_j, settings)
     clear = settings.conflict_clearance
-    predicted = (d_i >= -clear) & (d_j >= -clear) & (t_i <= settings.t_p) & (t_j <= settings.t_p)
+    # each vehicle's own preview t_p^i (Eq. 7): the point is predicted when both reach it within theirs
+    tp_i, tp_j = preview_time(kappa_i, settings), preview_time(kappa_j, settings)  # [s]
+    predicted = (d_i >= -clear) & (d_j >= -clear) & (t_i <= tp_i) & (t_j <= tp_j)
     out = np.where(predicted, field_i + field_j, 0.0)
     return out if out.ndim else float(out)
 

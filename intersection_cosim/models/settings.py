@@ -27,6 +27,13 @@ class ModelSettings:
     # [s] preview time of the prediction and of the field (Eq. 7): long enough that the trigger
     # sees the paper's conflict points (20-27 m ahead) from the first second
     t_p: float = 4.0
+    # [s] fall of the preview time per unit of kappa: vehicle i previews
+    # t_p^i = max(t_p_min, t_p + t_p_kappa (0.5 - kappa^i)) (Eq. 7 gives each AV its own t_p^i), so
+    # a cautious driver sees a conflict, and plays its game, earlier than an aggressive one
+    # (0: every vehicle t_p). 4: kappa 0.2 previews 5.2 s, 0.8 2.8 s; Case 1 B's yielders play
+    # from the first step instead of being braked by the safety filter (issue 20, docs/design.md)
+    t_p_kappa: float = 4.0
+    t_p_min: float = 1.0  # [s] the shortest preview time t_p^i
     # The prediction is along the paths (models/prediction.py), in closed form: no sampled rollout
     # or polynomial fit reads these two. They stay so scenario files that set them still load and
     # summary.json keeps its fields.
@@ -63,11 +70,11 @@ class ModelSettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "vehicle_length", "vehicle_width", "l_f", "l_r", "a0", "t_p",
-                            "eps", "v_max", "tcp_speed_floor", "conflict_zone_half",
+                            "eps", "v_max", "tcp_speed_floor", "conflict_zone_half", "t_p_min",
                             "straight_steer", "prediction_dt")
         if self.prediction_degree < 1:
             problems.append(("prediction_degree", "must be >= 1"))
-        problems += non_negative(self, "b", "c", "gamma_sf", "k_log", "k_lat", "k_lk", "k_y_lk",
+        problems += non_negative(self, "t_p_kappa", "b", "c", "gamma_sf", "k_log", "k_lat", "k_lk", "k_y_lk",
                                  "k_phi_lk", "k_e", "conflict_clearance")
         return problems
 

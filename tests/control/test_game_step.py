@@ -384,7 +384,9 @@ def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, n
     without being held solves again at once."""
     calls = _count_solo_solves(monkeypatch)
     model = ModelSettings(gamma_sf=1e12)  # no game: the solo plans and the filter decide
-    c = _nash_controller(paths, net_file, model)
+    # (nor does the filter's hold make the pair play: PolicySettings.filter_event off)
+    no_event = GameControllerSettings(policy=PolicySettings(filter_event=False))
+    c = _nash_controller(paths, net_file, model, no_event)
     t = c.table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     zone_a, zone_b = float(t.zone_in[p, q]), float(t.zone_in[q, p])
@@ -410,6 +412,26 @@ def test_a_vehicle_the_filter_holds_keeps_its_solo_plan_until_it_is_due(paths, n
     step(0.6, float(a.positions[1]), float(a.speeds[1]) - 1.0, s_b, v_b)
     assert calls.count("A") == before + 1
 
+
+
+@pytest.mark.parametrize("event", [True, False])
+def test_a_pair_the_filter_held_plays_its_game_from_the_next_step(paths, net_file, event):
+    """PolicySettings.filter_event: Gamma_cp never fires (Gamma_sf huge), so the first step has
+    no game and the filter holds B back for A; from the next step the pair plays its game (and
+    keeps playing it), so its margin comes from the game's trade-off; with the event off it
+    never does."""
+    model = ModelSettings(gamma_sf=1e12)
+    c = _nash_controller(paths, net_file, model, GameControllerSettings(policy=PolicySettings(filter_event=event)))
+    t = c.table
+    zone_a, zone_b = float(t.zone_in[t.index[LEFT], t.index[STRAIGHT]]), float(t.zone_in[t.index[STRAIGHT], t.index[LEFT]])
+    w = _world(paths, 0.0, [("A", LEFT, zone_a - 14.0, 7.0), ("B", STRAIGHT, zone_b - 9.0, 4.0)])
+    d = c.decide(w, time.perf_counter() + 10.0)
+    assert d.games == 0 and d.accel["B"] < float(c.memory.plans["B"].accelerations[0]) - 1.0  # held
+    games = []
+    for n in (1, 2):
+        w = _world(paths, 0.1 * n, [("A", LEFT, zone_a - 14.0 + 0.7 * n, 7.0), ("B", STRAIGHT, zone_b - 9.0 + 0.35 * n, 3.5)])
+        games.append(c.decide(w, time.perf_counter() + 10.0).pairs)
+    assert games == ([[("A", "B")], [("A", "B")]] if event else [[], []])
 
 def test_a_step_reports_the_qps_it_solved(controller, paths, monkeypatch):
     """Decisions.qp_solves (steps.csv's load-free measure of the work) is the number of QPs the

@@ -185,3 +185,28 @@ def test_a_turner_standing_with_its_rear_in_a_crossing_still_holds_the_other(pat
     assert d.accel["S"] == pytest.approx(-2.0 ** 2 / (2 * to_line), rel=1e-9)  # -1 m/s^2, at its line
     assert "S" in held
     assert d.accel["L"] == pytest.approx(GS.clear_accel)  # and L, standing in the crossing, drives out
+
+
+@pytest.mark.parametrize("games, braked", [(frozenset({("L", "S")}), False), (frozenset(), True)])
+def test_a_pair_in_a_game_keeps_only_its_share_of_the_time_gap(paths, movements, conflict_table, games, braked):
+    """S's plan enters its zone 0.35 s after L's has left it: inside the 0.5 s safety_time_gap,
+    outside the 0.2 s (game_gap_share 0.4) a pair keeps that plays its game this step. So the
+    filter leaves that pair's plans alone and brakes S when they play none (no trigger, or a
+    fallback step); a guarded pair of AVs is an event."""
+    from intersection_cosim.control.safety import occupancy
+    t = conflict_table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    hold = np.zeros(PROBLEM.steps)
+    s_l = float(t.zone_in[p, q]) - 4.0  # [m] L 0.5 s from its zone at 8 m/s
+    out_l = occupancy(Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), float(t.zone_in[p, q]), float(t.zone_out[p, q]))[1]
+    s_s = float(t.zone_in[q, p]) - 8.0 * (out_l + 0.35)  # [m] S enters 0.35 s after L's rear left
+    world = make_world(paths, 0.0, [("L", LEFT, s_l, 8.0), ("S", STRAIGHT, s_s, 8.0)])
+    plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
+    in_s = occupancy(plans["S"], float(t.zone_in[q, p]), float(t.zone_out[q, p]))[0]
+    assert 0.2 < in_s - out_l < 0.5
+    f = SafetyFilter(SafetySettings(game_gap_share=0.4), PROBLEM, MODEL, t.s_stop, 0.1)
+    d = Decisions(accel={"L": 0.0, "S": 0.0})
+    f.apply(world, _relations(world, movements, t), plans, {}, d, None, games)
+    assert d.accel["L"] == 0.0
+    assert (d.accel["S"] < -0.5) == braked and f.filtered == int(braked)
+    assert f.events == ({("L", "S")} if braked else set())

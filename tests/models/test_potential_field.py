@@ -19,7 +19,7 @@ from intersection_cosim.models.potential_field import (
 )
 from intersection_cosim.models.settings import ModelSettings
 
-S = ModelSettings(t_p=3.0)  # a0 = 1, b = 0.1, c = 0.5, t_p = 3 s (default 4), W = 1.8 m (d = 0.45 m), l = 2.7 m
+S = ModelSettings(t_p=3.0, t_p_kappa=0.0)  # a0 = 1, b = 0.1, c = 0.5, t_p = 3 s for every kappa (default 4 s, tilted by kappa), W = 1.8 m (d = 0.45 m), l = 2.7 m
 
 
 def _grid():

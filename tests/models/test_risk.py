@@ -18,7 +18,7 @@ from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflicts import KIND_CODE
 
 # hand values below are for t_p = 3 s (the default is 4 s); a0 = 1, gamma_sf = 40, clearance 4.5 m
-S = ModelSettings(t_p=3.0)
+S = ModelSettings(t_p=3.0, t_p_kappa=0.0)  # one preview for every kappa (the default tilts it by kappa)
 A5 = math.exp(0.5)  # field gain a at kappa = 0.5
 CASE1 = ("south_inner_left_inner", "east_inner_left_inner", "west_inner_left_inner")
 CASE1_S = np.array([125.0, 132.0, 120.0])  # [m] (2, -25), (18, 2), (-30, -2) on their paths
@@ -160,3 +160,24 @@ def test_paths_that_do_not_meet_never_trigger(conflict_table):
     s = conflict_table.s_stop[idx] + 12.0 - 5.0
     r = event_trigger(conflict_table, idx, s, np.full(4, 5.0), np.full(4, 1.0), S)
     assert len(r.i) == 0 and r.trigger.shape == (0,) and r.triggered_pairs.shape == (0, 2)
+
+
+def test_a_cautious_vehicle_previews_further_by_t_p_kappa():
+    # t_p^i = t_p + t_p_kappa (0.5 - kappa) (Eq. 7's per-vehicle preview): j arrives second, 18 m
+    # at 4 m/s (TCP 4.5 s), beyond t_p = 4 s; i 10 m at 5 m/s (TCP 2 s)
+    tilted = replace(ModelSettings(), t_p=4.0, t_p_kappa=4.0)
+    flat = replace(tilted, t_p_kappa=0.0)
+    assert collision_point_risk(10.0, 5.0, 0.5, 18.0, 4.0, 0.5, tilted) == 0.0  # moderate: 4 s
+    assert collision_point_risk(10.0, 5.0, 0.5, 18.0, 4.0, 0.5, flat) == 0.0
+    # cautious j (kappa 0.2): t_p^j = 5.2 s; j's field where i is at the point, s = 18 - 4 * 2 = 10 m
+    cautious = collision_point_risk(10.0, 5.0, 0.5, 18.0, 4.0, 0.2, tilted)
+    assert cautious == pytest.approx(math.exp(0.2) * (10.0 - 4.0 * 5.2) ** 2)
+    assert cautious > tilted.gamma_sf  # the cautious vehicle's game is played
+    assert collision_point_risk(10.0, 5.0, 0.5, 18.0, 4.0, 0.2, flat) == 0.0  # t_p_kappa 0: not
+    # an aggressive j (kappa 0.9) previews 2.4 s: a 2 s-away pair it no longer sees at 4.5 s ...
+    assert collision_point_risk(6.0, 5.0, 0.5, 10.0, 4.0, 0.9, tilted) == 0.0
+    # ... that a moderate one does (TCP 2.5 s <= 4 s)
+    assert collision_point_risk(6.0, 5.0, 0.5, 10.0, 4.0, 0.5, tilted) > 0.0
+    # never below t_p_min
+    floor = replace(tilted, t_p_kappa=40.0, t_p_min=1.0)
+    assert collision_point_risk(1.0, 5.0, 0.9, 1.5, 4.0, 0.9, floor) > 0.0  # TCPs 0.2 / 0.375 s within 1 s
