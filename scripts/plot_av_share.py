@@ -4,7 +4,7 @@
 
 Each RUN_DIR is a run folder (``run --out``) whose name contains ``av<share>`` (for example
 ``medium_av0.5-nash-s1``) or ``av_share_<share>`` (the run folders of ``compare --av-share``, for
-example ``.../runs/nash-seed1-av_share_0.50``); its controller comes from its summary.json. Runs of one controller and
+example ``.../runs/nash-seed1-av_share_0.50``), or is a run of a baseline of any name; its controller comes from its summary.json. Runs of one controller and
 share (the seeds) are averaged, with their spread as error bars; a controller that does not
 command vehicles (sumo-priority: SUMO drives every vehicle, whatever av_share) is drawn as a
 horizontal band (mean +- std over all its runs). The realised AV share (vehicles.csv's driver
@@ -34,15 +34,16 @@ def _runs(folders: list[str]) -> pd.DataFrame:
     for folder in map(Path, folders):
         match = re.search(r"av(?:_share_)?([0-9]+(?:\.[0-9]+)?)(?:-|$)", folder.name)
         summary = folder / "summary.json"
-        if match is None or not summary.exists():
+        s = json.loads(summary.read_text()) if summary.exists() else None
+        baseline = s is not None and s["controller"] in BASELINES  # its share does not matter
+        if s is None or (match is None and not baseline):
             print(f"skipped {folder} (no av<share> in its name or no summary.json)", file=sys.stderr)
             continue
-        s = json.loads(summary.read_text())
         vehicles = pd.read_csv(folder / "vehicles.csv")
         if "driver" not in vehicles:  # a run from before vehicles.csv had the column: its route file
             types = [el.get("type") for el in ET.parse(folder / "scenario.rou.xml").getroot().iter("vehicle")]
             vehicles = pd.DataFrame({"driver": ["human" if t == "human" else "av" for t in types]})
-        rows.append({"controller": s["controller"], "share": float(match.group(1)),
+        rows.append({"controller": s["controller"], "share": float(match.group(1)) if match else float("nan"),
                      "travel_time": s["metrics"]["mean_travel_time"], "collisions": s["counts"]["collisions"],
                      "realised": float((vehicles["driver"] == "av").mean())})
     return pd.DataFrame(rows)
