@@ -60,6 +60,7 @@ from intersection_cosim.games.qp import reset_workspaces, solve_count
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.network.conflicts import movement_conflict_table
+from intersection_cosim.network.waiting import waiting_watches
 
 EQUILIBRIA = {"nash": nash_equilibrium, "stackelberg": stackelberg_equilibrium}
 
@@ -131,7 +132,9 @@ class GameController:
                                  lane_costs, context.movements)
         self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.movements)
         self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
-                                   context.control_period, self.table.s_wait)
+                                   context.control_period, self.table.s_wait,
+                                   {pid: (context.paths[pid].s_wait, lanes)
+                                    for pid, lanes in waiting_watches(context.movements).items()})
         self.schedule = AnytimeSchedule()
         reset_workspaces()
         self._warm_up()

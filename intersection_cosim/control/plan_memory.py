@@ -48,15 +48,17 @@ WarmKey = Union[SoloKey, GameKey]
 SHIFT_CACHE_SIZE = 4096  # [-] shifted plans kept (a few per controlled vehicle and step)
 
 
-def human_forecast(world: World, k: int, a_max: float, v_max: float, steps: int, dt: float) -> Plan:
+def human_forecast(world: World, k: int, a_max: float, v_max: float, steps: int, dt: float,
+                   a0: float | None = None) -> Plan:
     """The plan human driver k is predicted to drive (models.prediction.human_accelerations: its
     acceleration clipped to [0, ``a_max``] [m/s^2], up to its desired speed, else ``v_max``
-    [m/s]) over ``steps`` steps of ``dt`` [s], from its measured state."""
+    [m/s]) over ``steps`` steps of ``dt`` [s], from its measured state; ``a0`` [m/s^2] in place
+    of its measured acceleration (``a_max``: it starts now)."""
     v_cap = v_max
     if world.desired_speed is not None and math.isfinite(float(world.desired_speed[k])):
         v_cap = float(world.desired_speed[k])
     v0 = float(world.v[k])
-    a = human_accelerations(v0, float(world.a[k]), a_max, max(v_cap, v0), steps, dt)
+    a = human_accelerations(v0, float(world.a[k]) if a0 is None else a0, a_max, max(v_cap, v0), steps, dt)
     return Plan.from_accelerations(float(world.s[k]), v0, a, dt)
 
 

@@ -67,6 +67,7 @@ from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
 
 
+WAIT_REACH = 1.0  # [m] how far before its waiting position a standing human counts as waiting there
 VECTOR_MIN_PAIRS = 16  # [-] guarded pairs from which the filter's first look is vectorised (below it
 #                        numpy's fixed cost exceeds the per-pair check's)
 
@@ -171,9 +172,12 @@ class SafetyFilter:
     """
 
     def __init__(self, settings: SafetySettings, problem: ProblemSettings, model: ModelSettings,
-                 s_stop: np.ndarray, period: float, s_wait: np.ndarray | None = None):
+                 s_stop: np.ndarray, period: float, s_wait: np.ndarray | None = None,
+                 waits: Mapping[str, tuple[float, frozenset[str]]] | None = None):
         self.settings, self.problem, self.model, self.s_stop, self.period = settings, problem, model, s_stop, period
         self.s_wait = np.full(len(s_stop), math.inf) if s_wait is None else s_wait  # [m] per path, inf: none
+        # path id -> ([m] its waiting position, the approach lanes SUMO's internal junction there waits for)
+        self.waits = dict(waits or {})
         self.entered: dict[str, float] = {}  # [s] when each vehicle entered the junction (the queue)
         self.filtered = 0  # accelerations the filter lowered
         self.cleared = 0  # accelerations the filter raised to clear a crossing (box rule)
@@ -278,6 +282,10 @@ class SafetyFilter:
             in_game = np.fromiter((self._in_game(ids[x], ids[y]) for x, y in zip(ki.tolist(), kj.tolist())), bool, len(ki))
             gap = np.where(in_game, st.time_gap(True), gap)
         apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
+        if self.waits:  # a human waiting at its position may start: the per-pair guard looks
+            waiting = np.array([self._waits_at_its_position(world, int(k)) for k in ks])
+            apart &= ~(waiting[a] | waiting[b])
+            in_i = np.where(waiting[a] | waiting[b], np.nan, in_i)
         # usable: both plans there, every time as occupancy() has it, at finite zone edges
         ok = usable[a] & usable[b] & e1 & e2 & e3 & e4 & np.isfinite(zone_i).all(axis=1) & np.isfinite(zone_j).all(axis=1)
         return ~(apart & ok), (np.where(ok, in_i, np.nan), out_i, in_j, out_j)
@@ -328,7 +336,7 @@ class SafetyFilter:
         in ``clear``: it must drive out."""
         st, ids = self.settings, world.ids
         ki, kj = int(relations.rows.vehicle[lat.ri]), int(relations.rows.vehicle[lat.rj])
-        pi, pj = self._plan_of(world, ki, plans), self._plan_of(world, kj, plans)
+        pi, pj = self._plan_of(world, ki, plans, kj), self._plan_of(world, kj, plans, ki)
         if pi is None or pj is None:
             return
         if occ is not None and not math.isnan(occ[0]):  # _maybe_close's values, bit for bit
@@ -429,15 +437,35 @@ class SafetyFilter:
             return False
         return zone_h[0] <= stop_h < zone_h[1]
 
-    def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan]) -> Plan | None:
+    def _plan_of(self, world: World, k: int, plans: Mapping[str, Plan], partner: int | None = None) -> Plan | None:
         """The plan the filter checks for vehicle k: this step's, or constant speed for one
-        SUMO drives again (it has left the junction); None for one without a plan."""
+        SUMO drives again (it has left the junction); None for one without a plan. A human
+        is its forecast; against a ``partner`` that :meth:`_may_release` says SUMO does not wait
+        for, a human standing at its waiting position starts at once at ``a_max``."""
         if world.is_human(k):
-            return human_forecast(world, k, self.problem.a_max, self.model.v_max, self.problem.steps, self.problem.dt)
+            a0 = self.problem.a_max if partner is not None and self._may_release(world, k, partner) else None
+            return human_forecast(world, k, self.problem.a_max, self.model.v_max, self.problem.steps, self.problem.dt, a0)
         plan = plans.get(world.ids[k])
         if plan is None and world.role[k] == "outside":
             return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(self.problem.steps), self.problem.dt)
         return plan
+
+    def _waits_at_its_position(self, world: World, k: int) -> bool:
+        """Whether vehicle k stands (below ``clear_speed``) at its path's waiting position (from
+        ``WAIT_REACH`` [m] before it to half a metre past it)."""
+        wait = self.waits.get(world.path_ids[k])
+        s = float(world.s[k])
+        return wait is not None and float(world.v[k]) < self.settings.clear_speed and wait[0] - WAIT_REACH <= s <= wait[0] + 0.5
+
+    def _may_release(self, world: World, h: int, k: int) -> bool:
+        """Whether SUMO may release human h from its waiting position while AV k approaches: h
+        waits there (:meth:`_waits_at_its_position`) and k, not yet in the junction, is on a lane
+        h's internal junction does not look at (network/waiting.py), so SUMO lets h go whatever
+        k does, and k must keep able to yield. Against the streams it waits for, h stays put
+        (predicting it to start made those AVs wait for it while SUMO held it for them: a lock)."""
+        if world.is_human(k) or world.role[k] != "ready" or not self._waits_at_its_position(world, h):
+            return False
+        return world.lanes[k] not in self.waits[world.path_ids[h]][1]
 
     def _arrival(self, world: World, lat: Lateral, ki: int, kj: int, in_i: float, in_j: float) -> tuple[float, float]:
         """[s] the times that rank the pair: to the zone at the current speed (``yield_order =
