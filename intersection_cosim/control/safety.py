@@ -47,7 +47,10 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   brakes (``SafetySettings.human_brake``) to stop in it, or may be held in it at its waiting
   position (an internal junction of SUMO's net, where a left turn waits for the opposing stream;
   SUMO's human brakes for it only metres before it) unless the AV clears its zone before the
-  human gets there (:meth:`SafetyFilter._hold_for_human`).
+  human gets there (:meth:`SafetyFilter._hold_for_human`). A human standing at its waiting
+  position is predicted to start at once against an AV approaching on a lane its internal
+  junction does not watch (SUMO releases it whatever that AV does); against the streams it waits
+  for it stays put (:meth:`SafetyFilter._may_release`).
 """
 
 from __future__ import annotations

@@ -208,3 +208,38 @@ def test_an_av_waits_at_its_stop_line_while_a_human_may_be_held_at_its_waiting_p
                 assert held == {"L"} and np.isclose(d.accel["L"], -v_av ** 2 / (2 * 7.0))  # stops at its line
             else:
                 assert held == frozenset() and d.accel["L"] == 0.0
+
+
+def test_a_human_at_its_waiting_position_may_start_against_the_streams_its_junction_does_not_watch(
+        paths, movements, conflict_table):
+    """A human stands at its waiting position turning left from the north. SUMO's internal
+    junction there watches the opposing (south) approach lanes only, so SUMO may release it
+    while an AV comes straight on from the east: that AV, 12 m before its line at 10 m/s, brakes
+    to stop human_margin before their crossing (it cannot make its line any more). An AV from
+    the south, which SUMO holds the human for, keeps its speed. A filter that does not know the
+    net's waiting positions brakes neither."""
+    from intersection_cosim.network.waiting import waiting_watches
+
+    t = conflict_table
+    human = "north_inner_left_middle"
+    watches = waiting_watches(movements)
+    assert watches[human] == {"south_in_0", "south_in_1", "south_in_2"}
+    waits = {pid: (paths[pid].s_wait, lanes) for pid, lanes in watches.items()}
+    h = t.index[human]
+    for other, brakes in (("east_inner_straight_inner", True), ("south_inner_straight_inner", False)):
+        k = t.index[other]
+        s_av = float(t.s_stop[k]) - 12.0  # [m]
+        world = make_world(paths, 10.0, [("H", human, float(t.s_wait[h]) - 0.1, 0.0), ("A", other, s_av, 10.0)])
+        world = dataclasses.replace(world, human=np.array([True, False]), role=["passing", "ready"])
+        plan = Plan.from_accelerations(s_av, 10.0, np.zeros(PROBLEM.steps), PROBLEM.dt)
+        rel = step_relations(world, {1}, movements, t, MODEL, True, {}, RANGE)
+        for known in (waits, None):
+            f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, t.s_wait, known)
+            f.record_entries(world)
+            d = Decisions(accel={"A": 0.0})
+            held = f.apply(world, rel, {"A": plan}, {}, d)
+            if brakes and known is not None:
+                to_zone = float(t.zone_in[k, h]) - GS.human_margin - s_av  # [m]
+                assert held == {"A"} and np.isclose(d.accel["A"], -10.0 ** 2 / (2 * to_zone))
+            else:
+                assert held == frozenset() and d.accel["A"] == 0.0
