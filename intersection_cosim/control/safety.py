@@ -285,8 +285,10 @@ class SafetyFilter:
             in_game = np.fromiter((self._in_game(ids[x], ids[y]) for x, y in zip(ki.tolist(), kj.tolist())), bool, len(ki))
             gap = np.where(in_game, st.time_gap(True), gap)
         apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
-        if self.waits:  # a human waiting at its position may start: the per-pair guard looks
-            waiting = np.array([self._waits_at_its_position(world, int(k)) for k in ks])
+        if self.waits and world.human is not None and bool(np.any(world.human)):
+            # a human waiting at its position may start (its forecast depends on the partner):
+            # the per-pair guard looks
+            waiting = np.array([world.is_human(int(k)) and self._waits_at_its_position(world, int(k)) for k in ks])
             apart &= ~(waiting[a] | waiting[b])
             in_i = np.where(waiting[a] | waiting[b], np.nan, in_i)
         # usable: both plans there, every time as occupancy() has it, at finite zone edges
