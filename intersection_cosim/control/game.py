@@ -179,8 +179,10 @@ class GameController:
                 self._apply(world, k, choice.plan, choice.option, decisions)
         solo = sorted((k for k in active if k not in in_game),
                       key=lambda k: self.paths[world.path_ids[k]].s_stop - float(world.s[k]))
+        outcomes = self.solo.plan_all(world, solo, lanes.options, relations, self._held_before, self.schedule.solo,
+                                      cutoff)
         for k in solo:
-            out = self.solo.plan(world, k, lanes.options[k], relations, self._held_before, self.schedule.solo, cutoff)
+            out = outcomes[k]
             decisions.deferred += out.deferred
             self._apply(world, k, out.plan, out.option, decisions)
         self._filter(world, relations, decisions)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import time
 from typing import NamedTuple
 
@@ -24,8 +25,7 @@ from intersection_cosim.control.lane_options import LaneChangeCosts
 from intersection_cosim.control.plan_memory import PlanMemory, SoloKey
 from intersection_cosim.control.players import player
 from intersection_cosim.control.relations import Relations
-from intersection_cosim.games.lane_choice import lane_choice_game
-from intersection_cosim.games.nash import solo_response
+from intersection_cosim.games.solo_batch import solo_responses
 from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.settings import GameSettings
@@ -63,50 +63,83 @@ class SoloPlanner:
         """Drop a vehicle's last solve (it left, joined a game, or its plan must be solved anew)."""
         self._last.pop(vehicle, None)
 
-    def plan(self, world: World, k: int, options: tuple[str, ...], relations: Relations,
-             held_before: frozenset[str], estimate: SolveTimeEstimate, cutoff: float) -> SoloOutcome:
-        """Best response of vehicle k with its exit-lane choice among ``options``; past ``cutoff``
-        (perf_counter) a vehicle with a plan keeps it, shifted. ``held_before``: the vehicles the
-        safety filter held back at a crossing at the last step."""
-        vid = world.ids[k]
-        players = {o: player(world, k, o, relations, self.memory) for o in options}
-        if len(options) == 1:
-            kept = self.reusable(world, k, options[0], players[options[0]], held_before)
-            if kept is not None:
-                return SoloOutcome(kept, options[0], False)
-        if vid in self.memory.plans and not estimate.fits(1, cutoff):
-            estimate.deferred()
-            self.forget(vid)
-            default = self.paths[world.path_ids[k]].exit_lane
-            return SoloOutcome(self.memory.kept_plan(world, k, self.settings.game.comfort_brake),
-                               self.memory.held_option(vid, default), True)
-        t0 = time.perf_counter()
-        problems = {(o,): Problem((players[o],), ()) for o in options}
-        result, choice, results = self._solve(world, k, problems)
-        for combo, res in results.items():
-            if res.status != "solver failure":
-                self.memory.store(SoloKey(vid, combo[0]), world.time, res.plans)
-        estimate.measured(time.perf_counter() - t0)
-        return SoloOutcome(self._accept(world, vid, result, choice, problems, held_before), choice[0], False)
+    def plan_all(self, world: World, ks: list[int], options, relations: Relations, held_before: frozenset[str],
+                 estimate: SolveTimeEstimate, cutoff: float) -> dict[int, SoloOutcome]:
+        """Best responses of the solo vehicles ``ks`` (most urgent first), each with its exit-lane
+        choice among ``options[k]``: a vehicle whose problem did not change keeps its plan
+        (:meth:`reusable`); the others are solved together (games.solo_batch), as many as the
+        anytime schedule fits before ``cutoff`` (perf_counter); past it a vehicle with a plan keeps
+        it, shifted. Every vehicle's leader enters as its plan of the last step (shifted), the
+        Jacobi order: no solo vehicle sees another's plan of this step. ``held_before``: the
+        vehicles the safety filter held back at a crossing at the last step."""
+        out: dict[int, SoloOutcome] = {}
+        jobs = []  # (k, {option: Player}) to solve
+        for k in ks:
+            players = {o: player(world, k, o, relations, self.memory) for o in options[k]}
+            if len(players) == 1:
+                (o, pl), = players.items()
+                kept = self.reusable(world, k, o, pl, held_before)
+                if kept is not None:
+                    out[k] = SoloOutcome(kept, o, False)
+                    continue
+            jobs.append((k, players))
+        units, solved = 0, []
+        for k, players in jobs:
+            units += len(players)
+            if world.ids[k] in self.memory.plans and not estimate.fits(units, cutoff):
+                units -= len(players)
+                out[k] = self._defer(world, k, estimate)
+            else:
+                solved.append((k, players))
+        if solved:
+            t0 = time.perf_counter()
+            outcomes = self._solve_all(world, solved, held_before)
+            estimate.measured((time.perf_counter() - t0) / len(solved))
+            out.update(outcomes)
+        return out
 
-    def _solve(self, world: World, k: int, problems: dict):
-        """Solve each exit lane's problem (warm from the plan k drives, else its last solo plan)
-        and choose among them."""
+    def _defer(self, world: World, k: int, estimate: SolveTimeEstimate) -> SoloOutcome:
+        """Vehicle k keeps its last plan, shifted (its solve does not fit the step)."""
         vid = world.ids[k]
-        warm = {}
-        for (o,) in problems:
-            if (driven := self.memory.driven_plan(vid, o)) is not None:
-                warm[(o,)] = (driven,)  # the plan it is driving (maybe a game's)
-            elif (start := self.memory.warm_start(SoloKey(vid, o), world.time)) is not None:
-                warm[(o,)] = start
-        if len(problems) == 1:
-            (combo, problem), = problems.items()
-            result = solo_response(problem, self.solo_gs, self.model, warm_start=warm.get(combo))
-            return result, combo, {combo: result}
-        costs = self.lane_costs.costs(world.path_ids[k], tuple(o for (o,) in problems))
-        lc = lane_choice_game(problems, [costs], solver=solo_response, settings=self.solo_gs,
-                              model_settings=self.model, warm_starts=warm)
-        return lc.result, lc.choice, lc.results
+        estimate.deferred()
+        self.forget(vid)
+        default = self.paths[world.path_ids[k]].exit_lane
+        return SoloOutcome(self.memory.kept_plan(world, k, self.settings.game.comfort_brake),
+                           self.memory.held_option(vid, default), True)
+
+    def _solve_all(self, world: World, jobs: list, held_before: frozenset[str]) -> dict[int, SoloOutcome]:
+        """Every (vehicle, exit lane) problem of ``jobs`` in one batch, then each vehicle's lane
+        choice among its results (:func:`cheapest`) and the plan it drives."""
+        problems, warms, index = [], [], []
+        for k, players in jobs:
+            costs = self.lane_costs.costs(world.path_ids[k], tuple(players)) if len(players) > 1 else {}
+            for o, pl in players.items():
+                if costs:  # J_lk of the option enters its running cost, as lane_choice_game does
+                    pl = dataclasses.replace(pl, j_lk=float(costs.get(o, 0.0)))
+                problems.append(Problem((pl,), ()))
+                warms.append(self._warm(world.ids[k], o, world.time))
+                index.append((k, o))
+        results = dict(zip(index, solo_responses(problems, self.solo_gs, self.model, warms)))
+        out = {}
+        for k, players in jobs:
+            vid = world.ids[k]
+            mine = {(o,): results[(k, o)] for o in players}
+            for (o,), res in mine.items():
+                if res.status != "solver failure":
+                    self.memory.store(SoloKey(vid, o), world.time, res.plans)
+            choice = cheapest(mine)
+            result = mine[choice]
+            problem = Problem((players[choice[0]],), ())
+            out[k] = SoloOutcome(self._accept(world, vid, result, choice, {choice: problem}, held_before),
+                                 choice[0], False)
+        return out
+
+    def _warm(self, vid: str, option: str, now: float):
+        """Warm start of ``vid``'s solo problem for exit lane ``option`` at ``now`` [s]: the plan
+        it drives (maybe a game's), else its last solo plan, else None (a cold start)."""
+        if (driven := self.memory.driven_plan(vid, option)) is not None:
+            return (driven,)
+        return self.memory.warm_start(SoloKey(vid, option), now)
 
     def _accept(self, world: World, vid: str, result, choice, problems, held_before) -> Plan:
         """The plan to apply, and whether the next step may reuse it."""
@@ -187,3 +220,16 @@ class SoloPlanner:
         v, s = plan.speeds[1:n + 1], plan.positions[1:n + 1]
         body = self.model.vehicle_length if length is None else length  # [m]
         return bool(np.all(v <= v_lead) and np.all(s_lead - body - s >= 0.0))
+
+
+
+def cheapest(results: dict) -> tuple:
+    """The exit lane of a solo vehicle: the option whose solve has the least true cost (its J_lk
+    included), the first of equals; the first when every solve failed. This is
+    games.lane_choice.lane_choice_game's pure equilibrium for one player."""
+    best, best_cost = None, math.inf
+    for combo, res in results.items():
+        cost = math.inf if res.status == "solver failure" else float(res.costs[0])
+        if best is None or cost < best_cost:
+            best, best_cost = combo, cost
+    return best

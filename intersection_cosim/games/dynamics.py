@@ -71,3 +71,18 @@ def rollout(s0: float, v0: float, a, dt: float) -> tuple[np.ndarray, np.ndarray]
     if a.ndim == 1:
         return v0 + hm.dtLv @ a, (s0 + v0 * hm.t) + hm.Ls @ a
     return v0 + a @ hm.dtLv.T, (s0 + v0 * hm.t) + a @ hm.Ls.T
+
+
+def stay_behind(a: np.ndarray, s0: float, v0: float, bound: np.ndarray, dt: float, a_min: float) -> np.ndarray:
+    """[m/s^2] accelerations ``a`` (N,) lowered where needed, step by step, so the positions
+    s_1..s_N stay at or behind ``bound`` (N,) [m] (a leader's rear), never braking harder than
+    ``a_min`` [m/s^2] nor below v = 0; from s0 [m], v0 [m/s]."""
+    out = np.array(a, dtype=float)
+    vk, sk = v0, s0
+    for k in range(len(out)):
+        hi = (bound[k] - sk - vk * dt) / (0.5 * dt * dt)
+        lo = max(a_min, -vk / dt)
+        out[k] = max(min(out[k], hi), lo)
+        sk += vk * dt + 0.5 * out[k] * dt * dt
+        vk = max(vk + out[k] * dt, 0.0)
+    return out

@@ -36,7 +36,7 @@ import math
 
 import numpy as np
 
-from intersection_cosim.games.dynamics import horizon_matrices, state_offset
+from intersection_cosim.games.dynamics import horizon_matrices, state_offset, stay_behind
 from intersection_cosim.games.problem import Plan, Player, Problem, speed_cap
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.models.cost import (lateral_safety_cost, longitudinal_safety_cost,
@@ -60,7 +60,7 @@ def comfort_weight(problem, kappa: float) -> float:
 
 
 @functools.lru_cache(maxsize=1024)  # one entry per kappa in play: built once per vehicle, not per solve
-def _quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float) -> np.ndarray:
+def quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float) -> np.ndarray:
     """Hessian of the exact quadratic terms: sum w_e (v - v_max)^2 + dt w_accel a^2 + dt jerk_w da^2
     (read-only)."""
     hm = horizon_matrices(n, dt)
@@ -139,7 +139,7 @@ class PlayerObjective:
         if self.w_log <= 0.0:
             self.log_terms = []
         # exact quadratic part (efficiency + comfort): 1/2 a^T Q a + b0^T a + const
-        self.Q = _quadratic_part(self.n, dt, self.w_e, self.w_acc, self.jerk_w)
+        self.Q = quadratic_part(self.n, dt, self.w_e, self.w_acc, self.jerk_w)
         self.b0 = (2.0 * self.w_e * (self.v0 - self.v_max)) * hm.dtLv_colsum
         # per lateral term (lat_terms, then the fixed crossers): (s_cp own, TCP of the other (N,),
         # other not passed (N,))
@@ -195,16 +195,7 @@ class PlayerObjective:
         bound = self._log[0][0] if len(self._log) == 1 else np.minimum.reduce([b for b, _ in self._log])
         if (s <= bound).all():
             return a
-        dt, gs = self.dt, self.gs
-        out = np.array(a, dtype=float)
-        vk, sk = self.v0, self.s0
-        for k in range(self.n):
-            hi = (bound[k] - sk - vk * dt) / (0.5 * dt * dt)
-            lo = max(gs.problem.a_min, -vk / dt)
-            out[k] = max(min(out[k], hi), lo)
-            sk += vk * dt + 0.5 * out[k] * dt * dt
-            vk = max(vk + out[k] * dt, 0.0)
-        return out
+        return stay_behind(a, self.s0, self.v0, bound, self.dt, self.gs.problem.a_min)
 
     # ------------------------------------------------------------------ true cost
     def cost(self, a) -> np.ndarray | float:

@@ -181,7 +181,7 @@ def _trust_region_step(obj: PlayerObjective, ws: QPWorkspace, gs: GameSettings, 
             return _Region(a, c, delta, True, qps, sol, x_qp)
         alpha, c_new = _line_search(obj, gs, a, c, d, pred, x_qp, exact)
         if alpha > 0.0:
-            delta = _new_radius(sv, delta, alpha, step, (c - c_new) / pred)
+            delta = new_radius(sv, delta, alpha, step, (c - c_new) / pred)
             a = x_qp if alpha == 1.0 else a + alpha * d
             return _Region(a, c_new, delta, exact or alpha * step < sv.br_step_tol, qps, sol, x_qp)
         if exact:  # the exact model's optimum does not lower the cost: a is optimal
@@ -210,7 +210,7 @@ def _line_search(obj: PlayerObjective, gs: GameSettings, a: np.ndarray, c: float
     return 0.0, c_new
 
 
-def _new_radius(sv, delta: float, alpha: float, step: float, ratio: float) -> float:
+def new_radius(sv, delta: float, alpha: float, step: float, ratio: float) -> float:
     """[m/s^2] the trust region after an accepted step of ``alpha`` and size ``step`` whose true
     decrease is ``ratio`` times the predicted one."""
     if alpha < 1.0:

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control import solo as solo_module
+from intersection_cosim.games import solo_batch
 from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext
 from intersection_cosim.control.game import GameController
@@ -81,16 +82,24 @@ def test_without_time_left_games_are_deferred_and_the_last_plans_kept(controller
 LANE = "south_middle_straight_middle"  # northbound, straight on: a leader and its follower
 
 
+def _watch_solo_solves(monkeypatch, seen) -> None:
+    """Call ``seen(problem, result)`` for every solo problem the controller solves from now on
+    (they are solved in batches: games.solo_batch.solo_responses)."""
+    real = solo_batch.solo_responses  # the solver itself, never a watcher installed before
+
+    def watching(problems, *a, **k):
+        results = real(problems, *a, **k)
+        for problem, result in zip(problems, results):
+            seen(problem, result)
+        return results
+
+    monkeypatch.setattr(solo_module, "solo_responses", watching)
+
+
 def _count_solo_solves(monkeypatch) -> list[str]:
     """The names of the players of every solo solve the controller makes from now on."""
     calls = []
-    real = solo_module.solo_response
-
-    def counting(problem, *a, **k):
-        calls.append(problem.players[0].name)
-        return real(problem, *a, **k)
-
-    monkeypatch.setattr(solo_module, "solo_response", counting)
+    _watch_solo_solves(monkeypatch, lambda problem, result: calls.append(problem.players[0].name))
     return calls
 
 
@@ -101,22 +110,25 @@ def test_a_solo_follower_solves_again_only_when_its_leader_prediction_moves(cont
     def world_at(t, s_lead, v_lead, s_follow, v_follow):
         return _world(paths, t, [("lead", LANE, s_lead, v_lead), ("follow", LANE, s_follow, v_follow)])
 
+    def as_planned(t, lead_slower=0.0):
+        """Both vehicles where their plans put them one period on; the leader ``lead_slower``
+        [m/s] slower than planned."""
+        lead, follow = controller.memory.plans["lead"], controller.memory.plans["follow"]
+        return world_at(t, float(lead.positions[1]), float(lead.speeds[1]) - lead_slower,
+                        float(follow.positions[1]), float(follow.speeds[1]))
+
     d = controller.decide(world_at(0.0, s_stop - 60.0, 8.0, s_stop - 80.0, 8.0), time.perf_counter() + 10.0)
     assert d.games == 0 and calls.count("follow") == 1
-    # both moved exactly as planned: the follower's problem is the same one, later -> reused
-    plans = dict(controller.memory.plans)
-    lead, follow = plans["lead"], plans["follow"]
-    w = world_at(0.1, float(lead.positions[1]), float(lead.speeds[1]),
-                 float(follow.positions[1]), float(follow.speeds[1]))
-    controller.decide(w, time.perf_counter() + 10.0)
-    assert calls.count("follow") == 1
-    # the leader is suddenly 2 m/s slower than its plan said: its prediction moved -> solve again
-    plans = dict(controller.memory.plans)
-    lead, follow = plans["lead"], plans["follow"]
-    w = world_at(0.2, float(lead.positions[1]), float(lead.speeds[1]) - 2.0,
-                 float(follow.positions[1]), float(follow.speeds[1]))
-    controller.decide(w, time.perf_counter() + 10.0)
+    # solo vehicles are solved together (Jacobi): at step 0 the follower saw its leader coasting,
+    # at step 1 it sees the leader's first plan, a moved prediction -> it solves again
+    controller.decide(as_planned(0.1), time.perf_counter() + 10.0)
     assert calls.count("follow") == 2
+    # both moved exactly as planned: the follower's problem is the same one, later -> reused
+    controller.decide(as_planned(0.2), time.perf_counter() + 10.0)
+    assert calls.count("follow") == 2
+    # the leader is suddenly 2 m/s slower than its plan said: its prediction moved -> solve again
+    controller.decide(as_planned(0.3, lead_slower=2.0), time.perf_counter() + 10.0)
+    assert calls.count("follow") == 3
 
 
 def _deepest_crossing(t):
@@ -242,22 +254,19 @@ def test_a_capped_solo_solve_goes_on_at_the_next_period(paths, net_file, monkeyp
     c = _nash_controller(paths, net_file, settings=GameControllerSettings(
         policy=PolicySettings(solo_max_iter=1, solo_reuse_residual=0.0)))
     solves = []  # (control step, status, iterations) of the follower's solo solves
-    real = solo_module.solo_response
     step = 0
 
-    def recording(problem, *a, **k):
-        result = real(problem, *a, **k)
+    def recording(problem, result):
         if problem.players[0].name == "follow":
             moved = result.residuals[-1] if result.residuals else 0.0
             solves.append((step, "converged" if result.status == "converged" or moved < c.settings.solver.nash_tol
                            else result.status, result.iterations))
-        return result
 
-    monkeypatch.setattr(solo_module, "solo_response", recording)
+    _watch_solo_solves(monkeypatch, recording)
     path = LANE
     s_stop = paths[path].s_stop
     world = _world(paths, 0.0, [("lead", path, s_stop - 60.0, 3.0), ("follow", path, s_stop - 75.0, 9.0)])
-    for step in range(8):
+    for step in range(12):  # converged at step 8 (it sees its leader's plans one period late)
         c.decide(world, time.perf_counter() + 10.0)
         lead, follow = c.memory.plans["lead"], c.memory.plans["follow"]
         world = _world(paths, 0.1 * (step + 1), [
@@ -469,25 +478,20 @@ def test_a_solo_vehicle_displaced_from_its_plan_beyond_solo_position_tol_solves_
 
     c.decide(_world(paths, 0.0, [("lead", LANE, s_stop - 60.0, 8.0), ("follow", LANE, s_stop - 80.0, 8.0)]),
              time.perf_counter() + 10.0)
-    assert calls.count("follow") == 1
-    step(0.1, 0.6 * tol)  # within the tolerance: kept
-    assert calls.count("follow") == 1
-    step(0.2, 2.0 * tol)  # beyond it: solved again
-    assert calls.count("follow") == 2
+    step(0.1, 0.0)  # the follower sees its leader's first plan (solo vehicles are solved together)
+    solved = calls.count("follow")
+    step(0.2, 0.6 * tol)  # within the tolerance: kept
+    assert calls.count("follow") == solved
+    step(0.3, 2.0 * tol)  # beyond it: solved again
+    assert calls.count("follow") == solved + 1
 
 
 def _capped_follower_solves(paths, net_file, monkeypatch, policy: PolicySettings) -> list[int]:
     """The control steps (of 8) at which a follower closing fast on a slow leader solves alone."""
     c = _nash_controller(paths, net_file, settings=GameControllerSettings(policy=policy))
     steps, now = [], [0]
-    real = solo_module.solo_response
-
-    def recording(problem, *a, **k):
-        if problem.players[0].name == "follow":
-            steps.append(now[0])
-        return real(problem, *a, **k)
-
-    monkeypatch.setattr(solo_module, "solo_response", recording)
+    _watch_solo_solves(monkeypatch, lambda problem, result: steps.append(now[0])
+                       if problem.players[0].name == "follow" else None)
     s_stop = paths[LANE].s_stop
     world = _world(paths, 0.0, [("lead", LANE, s_stop - 60.0, 3.0), ("follow", LANE, s_stop - 75.0, 9.0)])
     for n in range(8):
@@ -508,6 +512,8 @@ def test_solo_reuse_residual_lets_a_nearly_settled_capped_plan_be_kept(paths, ne
                                      PolicySettings(solo_max_iter=1, solo_reuse_residual=0.0, free_resolve_steps=5))
     loose = _capped_follower_solves(paths, net_file, monkeypatch,
                                     PolicySettings(solo_max_iter=1, solo_reuse_residual=100.0, free_resolve_steps=5))
-    assert strict[:2] == [0, 1]  # unconverged at step 0: solved again at once
-    assert loose == [0, 5]  # kept for free_resolve_steps - 1 periods, then solved again
+    # step 1: every follower sees its leader's first plan (solo vehicles are solved together, each
+    # against the plans of the last step) and solves again
+    assert strict[:3] == [0, 1, 2]  # unconverged at step 1: solved again at once
+    assert loose == [0, 1, 6]  # kept for free_resolve_steps - 1 periods, then solved again
     assert len(loose) < len(strict)

@@ -1,0 +1,104 @@
+"""games.solo_batch: many solo best responses in one pass, against solo_response one by one."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from intersection_cosim.games.nash import solo_response
+from intersection_cosim.games.problem import Plan, Player, Problem
+from intersection_cosim.games.qp import reset_workspaces
+from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.games.solo_batch import batchable, solo_responses
+from intersection_cosim.models.settings import ModelSettings
+
+MS = ModelSettings()
+
+
+def _settings(max_iter: int, hessian_reuse_tol: float | None = None) -> GameSettings:
+    gs = GameSettings()
+    tol = gs.solver.hessian_reuse_tol if hessian_reuse_tol is None else hessian_reuse_tol
+    return dataclasses.replace(gs, solver=dataclasses.replace(gs.solver, nash_max_iter=max_iter,
+                                                              hessian_reuse_tol=tol))
+
+
+def _problems(count: int, seed: int = 3):
+    """Solo vehicles at random states, most behind a leader at constant speed, most warm-started
+    from a random plan."""
+    gs = GameSettings()
+    n, dt = gs.problem.steps, gs.problem.dt
+    rng = np.random.default_rng(seed)
+    problems, warms = [], []
+    for i in range(count):
+        s0, v0, kappa = rng.uniform(-60.0, 0.0), rng.uniform(0.0, 12.0), rng.uniform(0.1, 0.9)  # [m], [m/s], [-]
+        leader = None
+        if rng.random() < 0.7:
+            v_l = np.full(n, rng.uniform(0.0, 10.0))  # [m/s]
+            leader = (s0 + rng.uniform(3.0, 40.0) + np.cumsum(v_l) * dt, v_l)  # [m] front, 3-40 m ahead
+        problems.append(Problem((Player(s0, v0, kappa, v_max=[None, 8.0][i % 2], leader=leader, name=f"v{i}"),)))
+        warm = Plan.from_accelerations(s0, v0, rng.uniform(-2.0, 2.0, n), dt)
+        warms.append(None if rng.random() < 0.2 else (warm,))
+    return problems, warms
+
+
+@pytest.mark.parametrize("max_iter", [1, 3])
+def test_a_batch_of_one_is_solo_response(max_iter):
+    """Alone in the batch and from the same fresh workspace, each problem gets solo_response's
+    plan, cost, status and QP count (one iteration: the same QPs in the same order; with
+    hessian_reuse_tol 0, as the batch never keeps an installed P for a new model)."""
+    gs = _settings(max_iter, hessian_reuse_tol=0.0)
+    problems, warms = _problems(40)
+    worst = 0.0
+    for problem, warm in zip(problems, warms):
+        reset_workspaces()
+        one = solo_response(problem, gs, MS, warm_start=warm)
+        reset_workspaces()
+        (batch,) = solo_responses([problem], gs, MS, [warm])
+        assert batch.status == one.status and batch.qp_count == one.qp_count
+        assert batch.costs[0] == pytest.approx(one.costs[0], rel=1e-9 if max_iter == 1 else 1e-3, abs=1e-12)
+        worst = max(worst, float(np.abs(batch.plans[0].accelerations - one.plans[0].accelerations).max()))
+    # max_iter 3: the batch builds a fresh model Hessian every iteration (solo_response may reuse it)
+    assert worst < (1e-9 if max_iter == 1 else 0.05)
+
+
+def test_every_plan_of_a_batch_is_feasible_and_no_worse_than_its_start():
+    """Each plan keeps its player's bounds (a in [a_min, a_max] m/s^2, 0 <= v <= v_cap m/s), starts
+    at its state, and its true cost is at most that of its (projected) warm start."""
+    gs = _settings(1)
+    problems, warms = _problems(60, seed=5)
+    reset_workspaces()
+    results = solo_responses(problems, gs, MS, warms)
+    assert all(r.status in ("converged", "iteration cap") for r in results)
+    for problem, warm, result in zip(problems, warms, results):
+        p, plan = problem.players[0], result.plans[0]
+        v_cap = max(p.v_max or MS.v_max, p.v0)
+        assert plan.positions[0] == p.s0 and plan.speeds[0] == p.v0
+        assert gs.problem.a_min - 1e-9 <= plan.accelerations.min() and plan.accelerations.max() <= gs.problem.a_max + 1e-9
+        assert plan.speeds.min() >= -1e-9 and plan.speeds.max() <= v_cap + 1e-9
+        if warm is not None and p.leader is None:  # the exact QP: the optimum, no worse than the start
+            start = solo_response(problem, _settings(1), MS, warm_start=warm)
+            assert result.costs[0] <= start.costs[0] * (1 + 1e-6) + 1e-9
+
+
+def test_a_bad_problem_fails_alone_and_other_kinds_go_one_by_one():
+    """A player with a non-finite leader prediction gets the comfortable-braking plan with status
+    'solver failure'; its neighbours in the batch are solved as if it were not there. A problem
+    with an interaction is not batchable and gets nash_equilibrium's answer."""
+    gs = _settings(1)
+    problems, warms = _problems(6, seed=7)
+    n = gs.problem.steps
+    bad = Problem((Player(-30.0, 5.0, 0.5, leader=(np.full(n, np.nan), np.zeros(n)), name="bad"),))
+    pair = Problem((Player(-20.0, 5.0, 0.5), Player(-18.0, 5.0, 0.5)), ())
+    assert not batchable(pair) and batchable(problems[0])
+    reset_workspaces()
+    alone = solo_responses(problems, gs, MS, warms)
+    reset_workspaces()
+    mixed = solo_responses(problems[:3] + [bad] + problems[3:], gs, MS, warms[:3] + [None] + warms[3:])
+    assert mixed[3].status == "solver failure"
+    assert np.all(np.diff(mixed[3].plans[0].speeds) <= 1e-12)  # it brakes
+    others = mixed[:3] + mixed[4:]
+    for a, b in zip(alone, others):
+        np.testing.assert_allclose(a.plans[0].accelerations, b.plans[0].accelerations, atol=1e-12)
+    (res,) = solo_responses([pair], gs, MS)
+    assert res.status in ("converged", "iteration cap") and len(res.plans) == 2
+
