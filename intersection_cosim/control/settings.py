@@ -42,7 +42,8 @@ class PolicySettings:
     #                              holds its choice in between; 1 = decide every step)
     # [-] a pair of AVs whose crossing the safety filter had to guard plays its game from the next
     # control step on until the crossing is passed, whatever Gamma_cp says (an event of the ETM,
-    # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin
+    # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin; the
+    # event ends once both are in the junction and one is below SafetySettings.clear_speed
     filter_event: bool = False
     anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
     #                                and solo solves that would not finish before the rest of the
