@@ -262,6 +262,24 @@ class GameController:
             self._held = self._held | held
             if self.settings.policy.filter_event:
                 self._events |= self.safety.events
+                self._events = self._live_events(world)
+
+    def _live_events(self, world: World) -> set[tuple[str, str]]:
+        """The filter's events (PolicySettings.filter_event) that still hold: dropped once both
+        vehicles of the pair are in the junction (the entry queue) and one of them is slower than
+        ``SafetySettings.clear_speed`` [m/s] (the filter may raise it again). Forcing the game on
+        for such a pair let two vehicles in the box plan to crawl for each other (J_lat a few
+        metres apart), which locked demand_balanced_high (stackelberg, seed 7, 300 s: 40 of 123
+        arrived with game_gap_share 0.4; with the event alone 13 vehicles stood in the box at
+        150 s; docs/design.md, issue 20 round 3)."""
+        entered, index = self.safety.entered, {vid: k for k, vid in enumerate(world.ids)}
+        slow = self.settings.safety.clear_speed  # [m/s]
+
+        def holds(e: tuple[str, str]) -> bool:
+            if e[0] not in entered or e[1] not in entered:
+                return True
+            return all(v in index and float(world.v[index[v]]) >= slow for v in e)
+        return {e for e in self._events if holds(e)}
 
     def _exit_holds(self, world: World) -> dict[str, float]:
         """[m/s^2] caps that keep vehicles whose exit lane is full at their stop lines."""

@@ -42,8 +42,9 @@ class PolicySettings:
     #                              holds its choice in between; 1 = decide every step)
     # [-] a pair of AVs whose crossing the safety filter had to guard plays its game from the next
     # control step on until the crossing is passed, whatever Gamma_cp says (an event of the ETM,
-    # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin
-    filter_event: bool = False
+    # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin; the
+    # event ends once both are in the junction and one is below SafetySettings.clear_speed
+    filter_event: bool = True
     anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
     #                                and solo solves that would not finish before the rest of the
     #                                budget are deferred (their vehicles keep their last plan, shifted)
@@ -64,9 +65,11 @@ class SafetySettings:
     safety_filter: bool = True  # [-] check every applied acceleration against collision
     safety_time_gap: float = 0.5  # [s] least time between two vehicles' occupancy of a conflict point
     # [-] share of safety_time_gap kept for a pair that plays its game this step (its plans are a
-    # game's; not in a fallback step, whose plans are the last ones shifted; 1: one gap for all): below the full gap the filter leaves the pair's margin to the game's
-    # trade-off (Eq. 13) and only catches what the game misses (issue 20, docs/design.md)
-    game_gap_share: float = 1.0
+    # game's; not in a fallback step, whose plans are the last ones shifted; 1: one gap for all):
+    # below the full gap the filter leaves the pair's margin to the game's trade-off (Eq. 13) and
+    # only catches what the game misses (issue 20; 0.4 with PolicySettings.filter_event since
+    # round 3, docs/design.md)
+    game_gap_share: float = 0.4
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
     yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
     #                          junction: "tcp" = smaller time to the crossing at the current speed

@@ -442,6 +442,31 @@ def test_a_pair_the_filter_held_plays_its_game_from_the_next_step(paths, net_fil
         games.append(c.decide(w, time.perf_counter() + 10.0).pairs)
     assert games == ([[("A", "B")], [("A", "B")]] if event else [[], []])
 
+@pytest.mark.parametrize("slow", [True, False])
+def test_a_filter_event_ends_for_a_pair_that_crawls_inside_the_box(paths, net_file, slow):
+    """PolicySettings.filter_event keeps a held pair's game on; once both are in the junction
+    and one of them is slower than clear_speed (1 m/s) the event is dropped, so the forced game
+    cannot keep two vehicles in the box planning to crawl for each other (that locked
+    demand_balanced_high, stackelberg, seed 7: 40 of 123 arrived with game_gap_share 0.4; with
+    the event alone 13 vehicles stood in the box at 150 s). Both still at speed, it plays on."""
+    model = ModelSettings(gamma_sf=1e12)  # Gamma_cp never fires: only the event makes the pair play
+    c = _nash_controller(paths, net_file, model, GameControllerSettings(policy=PolicySettings(filter_event=True)))
+    t = c.table
+    zone_a, zone_b = float(t.zone_in[t.index[LEFT], t.index[STRAIGHT]]), float(t.zone_in[t.index[STRAIGHT], t.index[LEFT]])
+    w = _world(paths, 0.0, [("A", LEFT, zone_a - 14.0, 7.0), ("B", STRAIGHT, zone_b - 9.0, 4.0)])
+    c.decide(w, time.perf_counter() + 10.0)  # the filter holds B back for A: the event
+    s_in = (paths[LEFT].s_stop + 0.5, paths[STRAIGHT].s_stop + 0.5)  # [m] just past their stop lines
+    assert s_in[0] < zone_a and s_in[1] < zone_b  # in the junction, not yet in the crossing
+    v_b = 0.5 if slow else 3.0  # [m/s]
+    games = []
+    for n in (1, 2, 3):
+        w = _world(paths, 0.1 * n, [("A", LEFT, s_in[0] + 0.1 * n, 2.0), ("B", STRAIGHT, s_in[1] + 0.05 * n, v_b)])
+        w.role = ["passing", "passing"]
+        games.append(c.decide(w, time.perf_counter() + 10.0).pairs)
+    # the first step in the box still plays (the event came from the approach); then it ends if B crawls
+    assert games == ([[("A", "B")], [], []] if slow else [[("A", "B")]] * 3)
+
+
 def test_a_step_reports_the_qps_it_solved(controller, paths, monkeypatch):
     """Decisions.qp_solves (steps.csv's load-free measure of the work) is the number of QPs the
     step solved: one per SQP step of every best response of its games and solo vehicles."""
