@@ -44,7 +44,8 @@ class PolicySettings:
     # control step on until the crossing is passed, whatever Gamma_cp says (an event of the ETM,
     # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin; the
     # event ends once both are in the junction and one is below SafetySettings.clear_speed
-    filter_event: bool = True
+    # (off by default: with it demand_unbalanced_high at 600 s and a 20 ms budget near-locked, docs/design.md)
+    filter_event: bool = False
     anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
     #                                and solo solves that would not finish before the rest of the
     #                                budget are deferred (their vehicles keep their last plan, shifted)
@@ -67,9 +68,9 @@ class SafetySettings:
     # [-] share of safety_time_gap kept for a pair that plays its game this step (its plans are a
     # game's; not in a fallback step, whose plans are the last ones shifted; 1: one gap for all):
     # below the full gap the filter leaves the pair's margin to the game's trade-off (Eq. 13) and
-    # only catches what the game misses (issue 20; 0.4 with PolicySettings.filter_event since
-    # round 3, docs/design.md)
-    game_gap_share: float = 0.4
+    # only catches what the game misses (issue 20; 0.4 with PolicySettings.filter_event hands
+    # Case 1's margins to the game, off by default, docs/design.md round 3)
+    game_gap_share: float = 1.0
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
     yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
     #                          junction: "tcp" = smaller time to the crossing at the current speed

@@ -86,13 +86,11 @@ def test_games_are_played_and_the_trigger_plays_fewer(paper_runs):
     pairs = pd.read_csv(paper_runs[("case1_A", "nash", False)] / "pairs.csv")
     assert (pairs["game_steps"] > 0).all()
     # and the work falls: QPs solved per control step (load-free, unlike the wall time) in Case 1 A,
-    # the paper's comparison. Measured: 0.95 of the no-trigger figure for Nash, 0.81 for
-    # Stackelberg (0.64 / 0.52 before the safety filter's events started most of Case 1 A's games,
-    # PolicySettings.filter_event: the saving is small now, docs/design.md "Issue 20, round 3")
+    # the paper's comparison (measured: 0.64 of the no-trigger figure for Nash, 0.52 for Stackelberg)
     for c in ("nash", "stackelberg"):
         on, off = (pd.read_csv(paper_runs[("case1_A", c, etm)] / "steps.csv")["qp_solves"].mean()
                    for etm in (True, False))
-        assert 0 < on < off, (c, on, off)
+        assert 0 < on < 0.75 * off, (c, on, off)
 
 
 @pytest.mark.slow
