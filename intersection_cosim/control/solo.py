@@ -129,8 +129,7 @@ class SoloPlanner:
                     self.memory.store(SoloKey(vid, o), world.time, res.plans)
             choice = cheapest(mine)
             result = mine[choice]
-            problem = Problem((players[choice[0]],), ())
-            out[k] = SoloOutcome(self._accept(world, vid, result, choice, {choice: problem}, held_before),
+            out[k] = SoloOutcome(self._accept(world, vid, result, choice[0], players[choice[0]], held_before),
                                  choice[0], False)
         return out
 
@@ -141,13 +140,14 @@ class SoloPlanner:
             return (driven,)
         return self.memory.warm_start(SoloKey(vid, option), now)
 
-    def _accept(self, world: World, vid: str, result, choice, problems, held_before) -> Plan:
-        """The plan to apply, and whether the next step may reuse it."""
+    def _accept(self, world: World, vid: str, result, option: str, chosen: Player, held_before) -> Plan:
+        """The plan to apply for exit lane ``option`` (solved as player ``chosen``), and whether the
+        next step may reuse it."""
         if result.status == "solver failure":
             log.warning("t=%.2f s: best response of %s failed (%s); braking comfortably",
                         world.time, vid, result.message)
             self.forget(vid)
-            return safe_plan(problems[choice].players[0], self.settings.games)
+            return safe_plan(chosen, self.settings.games)
         settled = max(self.settings.solver.nash_tol, self.policy.solo_reuse_residual)  # [m/s^2]
         if (result.status != "converged" and vid not in held_before
                 and not (result.residuals and result.residuals[-1] < settled)):
@@ -157,7 +157,7 @@ class SoloPlanner:
             # only the intent the filter checks)
             self.forget(vid)
         else:
-            self._last[vid] = _LastSolve(0, choice[0], problems[choice].players[0].leader)
+            self._last[vid] = _LastSolve(0, option, chosen.leader)
         return result.plans[0]
 
     def reusable(self, world: World, k: int, option: str, player_now: Player,
@@ -220,7 +220,6 @@ class SoloPlanner:
         v, s = plan.speeds[1:n + 1], plan.positions[1:n + 1]
         body = self.model.vehicle_length if length is None else length  # [m]
         return bool(np.all(v <= v_lead) and np.all(s_lead - body - s >= 0.0))
-
 
 
 def cheapest(results: dict) -> tuple:
