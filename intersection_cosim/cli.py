@@ -240,6 +240,9 @@ def _cmd_run(args) -> int:
     c = summary["counts"]
     print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
+    if (stuck := summary.get("deadlock")) is not None:
+        print(f"{out}: deadlock: all {stuck['vehicles']} vehicles in the network stood still from "
+              f"t={stuck['since']:.1f} s; the run ended at t={stuck['time']:.1f} s")
     return 0
 
 

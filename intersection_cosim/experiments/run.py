@@ -26,6 +26,7 @@ from intersection_cosim import __version__
 from intersection_cosim.control import registry
 from intersection_cosim.control.base import ControlContext, Controller, Diagnostics, World
 from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.deadlock import StandstillWatch
 from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_output_options, write_routes,
                                                   write_sumocfg)
 from intersection_cosim.network.build import NET_FILE
@@ -157,6 +158,7 @@ class _Records(NamedTuple):
     step_rows: list[tuple]  # STEP_COLUMNS, one per control step
     game_rows: list[tuple]  # GAME_COLUMNS, one per game played
     game_steps: dict[tuple[str, str], int]  # (id, id) sorted -> control steps the pair played a game
+    deadlock: list  # the run's experiments.deadlock.Deadlock, if it ended in one (at most one entry)
 
 
 class _Simulated(NamedTuple):
@@ -189,6 +191,8 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     diagnostics = inputs.controller.diagnostics()
     _write_tables(folder, tables, simulated.records.game_rows, diagnostics)
     summary = _summary(scn, simulated.infos, tables, diagnostics, gui)
+    stuck = simulated.records.deadlock
+    summary["deadlock"] = stuck[0]._asdict() if stuck else None
     if simulated.v2x_counts is not None:
         summary["v2x"] = dict(simulated.v2x_counts)
     with open(folder / RUN_MARKER, "w") as fh:
@@ -327,7 +331,8 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
             view.attach(sim.api)
         channel = (Channel(scn.v2x, inputs.movements, scn.controller.period, s.seed)
                    if scn.v2x.enabled else None)
-        records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain, channel)
+        records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain, channel,
+                               StandstillWatch(s.deadlock_time))
         final_paths = {**sim.left_paths, **sim.current_path}
         exit_lanes = dict(sim.exit_lane_taken)
         infos = dict(sim.vehicles)  # with the vehicles of the user's own route file
@@ -345,16 +350,17 @@ def _signals_off(scn: Scenario, controller: Controller) -> bool:
     return not scn.network.generated and scn.network.signals == "off" and controller.junction_type != "traffic_light"
 
 
-def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float, channel=None) -> _Records:
-    """Step the started ``sim`` (sim.sumo.SumoSimulation) until ``end_time`` [s] or no vehicle is
-    left; every ``period_steps`` steps read the world, let ``scheduler`` (sim.network_scheduler's,
+def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float, channel=None,
+                 watch: StandstillWatch | None = None) -> _Records:
+    """Step the started ``sim`` (sim.sumo.SumoSimulation) until ``end_time`` [s], no vehicle is
+    left or ``watch`` (experiments.deadlock) sees every vehicle stand still too long; every ``period_steps`` steps read the world, let ``scheduler`` (sim.network_scheduler's,
     one controller per junction) decide, command, show the step to ``observers`` and record it.
     Returns the recorded rows.
 
     With a ``channel`` (v2x.Channel) the vehicles send their states when it says so, the
     controller decides on the World the channel shows it, and its decisions reach SUMO when the
     channel delivers them (checked every step); the records keep SUMO's state."""
-    records = _Records([], [], [], {})
+    records = _Records([], [], [], {}, [])
     sim.advance()  # time 0: insert the vehicles that depart at once
     k = 0
     while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
@@ -374,6 +380,12 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
             for observe in observers:
                 observe(world, step.decisions)
             _record_step(records, world, step)
+            if watch is not None and (stuck := watch.update(world.time, sim.speeds())) is not None:
+                log.warning("t=%.1f s: every one of the %d vehicles in the network has stood still since "
+                            "t=%.1f s: a deadlock; the run ends here (scenario.deadlock_time)",
+                            stuck.time, stuck.vehicles, stuck.since)
+                records.deadlock.append(stuck)
+                break
         if channel is not None and (arrived := channel.deliver(sim.time)) is not None:
             sim.command(arrived)
         sim.write()  # write

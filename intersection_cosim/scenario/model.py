@@ -23,10 +23,12 @@ class ScenarioSettings:
     seed: int = 42  # [-] SUMO's --seed and the seed of every random draw (flows, kappa)
     junction_type: str = "priority"  # [-] SUMO node type of the centre for the sumo controller
     exit_distance: float = 50.0  # [m] past the junction where vehicles arrive (leave the network)
+    deadlock_time: float = 60.0  # [s] end the run once every vehicle in the network has stood still
+    #                              (< 0.1 m/s) this long: a deadlock (experiments/deadlock.py); 0: never
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "duration", "step_length", "exit_distance")
-        problems += non_negative(self, "drain")
+        problems += non_negative(self, "drain", "deadlock_time")
         if self.junction_type not in JUNCTION_TYPES:
             problems.append(("junction_type", f"must be one of {', '.join(JUNCTION_TYPES)}"))
         if self.seed < 0:

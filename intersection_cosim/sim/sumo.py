@@ -396,6 +396,10 @@ class SumoSimulation:
         """Vehicles still in the network or waiting to be inserted."""
         return self.api.simulation.getMinExpectedNumber()
 
+    def speeds(self) -> list[float]:
+        """[m/s] the speed of every vehicle in the network (controlled or not), as last read."""
+        return [res[libsumo.VAR_SPEED] for res in self.states.values()]
+
     def close(self) -> None:
         try:
             self.api.close()
