@@ -102,6 +102,8 @@ class Decisions:
     games: int = 0  # games played this step
     iterations: int = 0  # equilibrium iterations (summed over games)
     pairs: list[tuple[str, str]] = field(default_factory=list)  # pairs that played a game
+    kept: list[tuple[str, str]] = field(default_factory=list)  # of ``pairs``, those whose game kept
+    #                                                            its last equilibrium, unsolved
     deferred: int = 0  # games / solo solves left out to meet the budget (last plan kept, shifted)
     qp_solves: int = 0  # QPs solved for this step (the work, independent of the machine's load)
     fallback: bool = False  # the decisions are the scheduler's fallback

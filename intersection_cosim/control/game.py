@@ -49,8 +49,9 @@ from intersection_cosim.control.anytime import AnytimeSchedule, step_cutoff
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
 from intersection_cosim.control.exit_room import exit_room_caps
 from intersection_cosim.control.lane_options import LaneChangeCosts, lane_options
-from intersection_cosim.control.pair_games import GameSolver, PairGame, pair_games, play, urgency
-from intersection_cosim.control.plan_memory import PlanMemory
+from intersection_cosim.control.game_reuse import GameReuse
+from intersection_cosim.control.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
+from intersection_cosim.control.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.relations import Relations, step_relations
 from intersection_cosim.control.safety import SafetyFilter
 from intersection_cosim.control.solo import SoloPlanner
@@ -131,6 +132,7 @@ class GameController:
         self.solver = GameSolver(EQUILIBRIA[self.equilibrium], self.equilibrium, self.settings.games, self.model,
                                  lane_costs, context.movements)
         self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.movements)
+        self.reuse = GameReuse(self.settings.policy, self.memory, context.model.v_max)
         self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
                                    context.control_period, self.table.s_wait,
                                    {pid: (context.paths[pid].s_wait, lanes)
@@ -199,6 +201,7 @@ class GameController:
         for vid in release:
             self.memory.forget(vid)
             self.solo.forget(vid)
+            self.reuse.forget(vid)
             self._choice_age.pop(vid, None)
             self.safety.release(vid)
         return release
@@ -215,6 +218,10 @@ class GameController:
         games = pair_games(relations, options)
         for game in sorted(games.values(), key=lambda g: urgency(world, g, self.model.tcp_speed_floor)):
             ka, kb = game.a, game.b
+            problems, warm = game_problems(world, game, options, relations, self.memory)
+            if (kept := self.reuse.kept(world, ka, kb, problems, self._held_before)) is not None:
+                self._keep_game(world, game, *kept, in_game, decisions)
+                continue
             estimate = self.schedule.game[self.memory.has_game(world.ids[ka], world.ids[kb])]
             combos = len(options[ka]) * len(options[kb])
             if not estimate.fits(combos, cutoff):
@@ -224,12 +231,25 @@ class GameController:
                     in_game.setdefault(k, []).append(self._kept_choice(world, k))
                 continue
             t0 = time.perf_counter()
-            result, choice = play(world, game, options, relations, self.memory, self.solver, cutoff)
+            result, choice = play(world, game, problems, warm, options, self.memory, self.solver, cutoff)
             estimate.measured((time.perf_counter() - t0) / combos)
+            self.reuse.solved(world, ka, kb, problems, result, choice)
             self._record_game(world, game, result, decisions)
             for k, plan, option in ((ka, result.plans[0], choice[0]), (kb, result.plans[1], choice[1])):
                 in_game.setdefault(k, []).append(Choice(float(plan.accelerations[0]), plan, option))
         return in_game
+
+    def _keep_game(self, world: World, game: PairGame, plans: tuple, choice: tuple, in_game: dict,
+                   decisions: Decisions) -> None:
+        """Pair ``game`` keeps its last equilibrium (control/game_reuse.py): counted as a game in
+        force this step, with no iteration and no convergence record."""
+        ids = world.ids
+        self.memory.store(GameKey(ids[game.a], ids[game.b], *choice), world.time, plans)
+        decisions.games += 1
+        decisions.pairs.append((ids[game.a], ids[game.b]))
+        decisions.kept.append((ids[game.a], ids[game.b]))
+        for k, plan, option in ((game.a, plans[0], choice[0]), (game.b, plans[1], choice[1])):
+            in_game.setdefault(k, []).append(Choice(float(plan.accelerations[0]), plan, option))
 
     def _record_game(self, world: World, game: PairGame, result, decisions: Decisions) -> None:
         ids = world.ids

@@ -93,7 +93,7 @@ def urgency(world: World, game: PairGame, speed_floor: float) -> tuple[float, in
     return (tcp, game.a, game.b)
 
 
-def _problems(world: World, game: PairGame, options: Mapping[int, tuple[str, ...]], relations: Relations,
+def game_problems(world: World, game: PairGame, options: Mapping[int, tuple[str, ...]], relations: Relations,
               memory: PlanMemory) -> tuple[dict, dict]:
     """The continuous game of every exit-lane combination, and its warm start where there is one."""
     ka, kb = game.a, game.b
@@ -117,12 +117,12 @@ def _problems(world: World, game: PairGame, options: Mapping[int, tuple[str, ...
     return problems, warm
 
 
-def play(world: World, game: PairGame, options: Mapping[int, tuple[str, ...]], relations: Relations,
+def play(world: World, game: PairGame, problems: dict, warm: dict, options: Mapping[int, tuple[str, ...]],
          memory: PlanMemory, solver: GameSolver, deadline: float) -> tuple[GameResult, tuple[str, str]]:
-    """Solve one pair's game (every exit-lane combination, then the lane choice); store the
-    warm starts. Returns the chosen combination's equilibrium and the exit lanes."""
+    """Solve one pair's game (``problems`` and ``warm`` of :func:`game_problems`: every exit-lane
+    combination, then the lane choice); store the warm starts. Returns the chosen combination's
+    equilibrium and the exit lanes."""
     ka, kb = game.a, game.b
-    problems, warm = _problems(world, game, options, relations, memory)
     gs, model = solver.settings, solver.model
     if len(problems) == 1:
         (combo, problem), = problems.items()

@@ -42,6 +42,7 @@ def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> De
         merged.games += d.games
         merged.iterations += d.iterations
         merged.pairs.extend(d.pairs)
+        merged.kept.extend(d.kept)
         merged.deferred += d.deferred
         merged.qp_solves += d.qp_solves
         merged.fallback = merged.fallback or d.fallback

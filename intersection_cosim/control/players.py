@@ -38,6 +38,18 @@ def leader_trajectory(world: World, leader: Leader, memory: PlanMemory) -> tuple
     return s, v
 
 
+def prediction_moved(then: tuple, now: tuple, lag: int, tol: float) -> bool:
+    """Whether a leader's prediction ``now`` (s [m], v [m/s] over the horizon) moved by more
+    than ``tol`` [m] or [m/s] from ``then``, made ``lag`` plan steps earlier, where they overlap
+    (all of it when they do not)."""
+    s_then, v_then = then
+    s_now, v_now = now
+    m = len(s_now) - lag
+    if m <= 0:
+        return True
+    return bool(np.abs(s_now[:m] - s_then[lag:]).max() > tol or np.abs(v_now[:m] - v_then[lag:]).max() > tol)
+
+
 def desired_speed(world: World, k: int) -> float | None:
     """[m/s] vehicle k's own desired speed, None for the model's v_max."""
     if world.desired_speed is None or not math.isfinite(float(world.desired_speed[k])):

@@ -23,6 +23,8 @@ class PolicySettings:
 
     free_resolve_steps: int = 5  # [-] most control steps between solves of a vehicle in no game
     #                              whose inputs did not change (control/solo.py)
+    game_resolve_steps: int = 5  # [-] most control steps between solves of a pair's game whose
+    #                              inputs did not change (control/game_reuse.py; 1: solve every step)
     solo_max_iter: int = 1  # [-] SQP steps of a solo vehicle's best response per control step
     #                         (real-time iteration: an unconverged plan is applied and the SQP
     #                         goes on from it, shifted, at the next step; games are not capped)
@@ -51,7 +53,7 @@ class PolicySettings:
     #                                budget are deferred (their vehicles keep their last plan, shifted)
 
     def check(self) -> list[tuple[str, str]]:
-        problems = positive(self, "free_resolve_steps", "solo_max_iter", "lane_choice_period")
+        problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
         problems += non_negative(self, "solo_leader_tol", "solo_speed_tol", "solo_position_tol", "solo_reuse_residual",
                                  "lane_choice_range", "anytime_reserve")
         if not self.anytime_reserve < 1:

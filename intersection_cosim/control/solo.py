@@ -23,7 +23,7 @@ from intersection_cosim.control.anytime import SolveTimeEstimate
 from intersection_cosim.control.base import World
 from intersection_cosim.control.lane_options import LaneChangeCosts
 from intersection_cosim.control.plan_memory import PlanMemory, SoloKey
-from intersection_cosim.control.players import player
+from intersection_cosim.control.players import player, prediction_moved
 from intersection_cosim.control.relations import Relations
 from intersection_cosim.games.solo_batch import solo_responses
 from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
@@ -201,11 +201,9 @@ class SoloPlanner:
         lag = (last.age + 1) * self.memory.shift  # [steps] since the solve
         s_then, v_then = last.leader
         s_now, v_now = leader_now
-        m = len(s_now) - lag
-        if m <= 0:
+        if len(s_now) <= lag:
             return True
-        tol = self.policy.solo_leader_tol
-        moved = (np.abs(s_now[:m] - s_then[lag:]).max() > tol or np.abs(v_now[:m] - v_then[lag:]).max() > tol)
+        moved = prediction_moved(last.leader, leader_now, lag, self.policy.solo_leader_tol)
         # a moved prediction matters only where it enters the cost: J_log is zero along a plan
         # that is never faster than the leader and never overlaps it, under the old prediction
         # (so the plan did not answer it) and the new one (so it need not)

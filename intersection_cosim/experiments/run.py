@@ -405,8 +405,9 @@ def _record_step(records: _Records, world: World, step) -> None:
                                   world.heading[i], world.lanes[i], world.role[i],
                                   world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
     records.step_rows.extend(dataclasses.astuple(record) for record in step.records)
+    kept = set(decisions.kept)
     for (a, b), junction in zip(decisions.pairs, step.pair_junctions):
-        records.game_rows.append((world.time, a, b, junction))
+        records.game_rows.append((world.time, a, b, junction, (a, b) not in kept))
         key = (a, b) if a < b else (b, a)
         records.game_steps[key] = records.game_steps.get(key, 0) + 1
 

@@ -40,7 +40,8 @@ COLLISIONS_FILE = "collisions.xml"
 TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
                       "accel_cmd"]
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
-GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b", "junction"]  # time [s] of the step, the pair that played, where
+GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b", "junction", "solved"]  # time [s] of the step, the pair that
+# played, where, and whether its game was solved (False: it kept its last equilibrium, control/game_reuse.py)
 # one row per control step and managed junction (its controller's own record)
 STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves",
                 "junction"]

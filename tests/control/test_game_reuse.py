@@ -1,0 +1,100 @@
+"""A pair's game whose inputs did not change keeps its equilibrium (control/game_reuse.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+import pytest
+
+from intersection_cosim.control.base import ControlContext
+from intersection_cosim.control.game import GameController
+from intersection_cosim.control.settings import GameControllerSettings, PolicySettings
+from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.movements import paper_movements
+from tests.control.conftest import make_world
+
+LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
+STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
+
+
+def _controller(net_file, game_resolve_steps: int) -> tuple[GameController, list]:
+    """A Nash controller (ETM on, 0.1 s period) and the list of iteration counts of the games it
+    solves from now on."""
+    c = GameController("nash")
+    settings = GameControllerSettings(policy=PolicySettings(game_resolve_steps=game_resolve_steps))
+    c.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
+                           settings=settings, etm=True))
+    solves = []
+    real = c.solver.equilibrium
+
+    def recording(problem, *a, **k):
+        result = real(problem, *a, **k)
+        solves.append(result.iterations)
+        return result
+
+    c.solver = dataclasses.replace(c.solver, equilibrium=recording)
+    return c, solves
+
+
+def _start(c: GameController, paths):
+    t = c.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    return make_world(paths, 0.0, [("L", LEFT, t.s_a[p, q] - 22.0, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 24.0, 8.0)])
+
+
+def _as_planned(c: GameController, paths, t: float, slower: float = 0.0):
+    """Both vehicles where their applied plans put them one period on; S ``slower`` [m/s]."""
+    ps = [c.memory.plans[v] for v in ("L", "S")]
+    return make_world(paths, t, [("L", LEFT, float(ps[0].positions[1]), float(ps[0].speeds[1])),
+                                 ("S", STRAIGHT, float(ps[1].positions[1]), float(ps[1].speeds[1]) - slower)])
+
+
+def test_a_steady_game_is_kept_between_solves_at_most_game_resolve_steps_apart(paths, net_file):
+    c, solves = _controller(net_file, 4)
+    per_step = []
+    world = _start(c, paths)
+    for n in range(12):
+        before = len(solves)
+        d = c.decide(world, time.perf_counter() + 10.0)
+        assert d.games == 1  # the pair's game is in force every step, solved or kept
+        per_step.append(len(solves) - before)
+        world = _as_planned(c, paths, 0.1 * (n + 1))
+    assert per_step[0] == 1  # a new game is solved
+    kept = [n for n, s in enumerate(per_step) if s == 0]
+    assert len(kept) >= 4  # on its plans the game is steady: most steps keep it
+    runs = "".join(str(s) for s in per_step).split("1")
+    assert max(len(r) for r in runs) <= 3  # never more than game_resolve_steps - 1 kept in a row
+    for n in kept:  # a kept step follows a solve that converged at once, or another kept step
+        assert per_step[n - 1] == 0 or solves[sum(per_step[:n]) - 1] == 1
+
+
+def test_a_kept_game_starts_its_plans_from_the_measured_states(paths, net_file):
+    c, solves = _controller(net_file, 5)
+    world = _start(c, paths)
+    for n in range(4):
+        before = len(solves)
+        c.decide(world, time.perf_counter() + 10.0)
+        if len(solves) == before:  # kept
+            for k, v in enumerate(("L", "S")):
+                plan = c.memory.plans[v]
+                assert plan.positions[0] == pytest.approx(world.s[k]) and plan.speeds[0] == pytest.approx(world.v[k])
+        world = _as_planned(c, paths, 0.1 * (n + 1))
+    assert len(solves) < 4
+
+
+def test_a_player_off_its_plan_or_a_resolve_period_of_one_solves_every_step(paths, net_file):
+    c, solves = _controller(net_file, 5)
+    world = _start(c, paths)
+    for n in range(6):  # S is 0.2 m/s slower than planned at every step: never the same game
+        c.decide(world, time.perf_counter() + 10.0)
+        world = _as_planned(c, paths, 0.1 * (n + 1), slower=0.2)
+    assert len(solves) == 6
+    every, solves_every = _controller(net_file, 1)
+    world = _start(every, paths)
+    for n in range(6):
+        every.decide(world, time.perf_counter() + 10.0)
+        world = _as_planned(every, paths, 0.1 * (n + 1))
+    assert len(solves_every) == 6
+    assert np.isfinite([every.memory.plans[v].accelerations for v in ("L", "S")]).all()
