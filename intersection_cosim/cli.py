@@ -240,9 +240,10 @@ def _cmd_run(args) -> int:
     c = summary["counts"]
     print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
-    if (stuck := summary.get("deadlock")) is not None:
-        print(f"{out}: deadlock: all {stuck['vehicles']} vehicles in the network stood still from "
-              f"t={stuck['since']:.1f} s; the run ended at t={stuck['time']:.1f} s")
+    if (end := summary.get("ended_early")) is not None:
+        why = (f"all {end['vehicles']} vehicles in the network stood still from t={end['since']:.1f} s (a deadlock)"
+               if end["reason"] == "deadlock" else f"the run held {end['peak_gb']:.1f} GB (scenario.memory_limit)")
+        print(f"{out}: ended early at t={end['time']:.1f} s: {why}")
     return 0
 
 

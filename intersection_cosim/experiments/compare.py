@@ -16,7 +16,8 @@ encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_
 collisions summed; ``late_or_stuck``: departed vehicles that never arrived (a deadlock) or lost
 more than 60 s against free flow (tripinfo's timeLoss: a queue that does not drain), whatever the
 length of their routes, so the same bound holds on a small junction and on a long OSM approach;
-``deadlocks``: runs that ended early because every vehicle stood still (experiments.deadlock); compute time per control step (summed over the
+``ended_early``: runs that ended before their end because every vehicle stood still (a deadlock,
+experiments.deadlock) or past scenario.memory_limit (experiments.memory_guard); compute time per control step (summed over the
 junctions' controllers of a net with several) median and 95th percentile over all steps, and
 the share of junction steps (one junction's controller in one control step, each with its own
 budget) that missed their deadline.
@@ -54,7 +55,7 @@ LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against fre
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
-           "late_or_stuck", "deadlocks", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps", "deadline_misses",
+           "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps", "deadline_misses",
            "deadline_miss_share",
            "deferred_step_share"]
 # Metrics that get a figure against demand, with axis labels.
@@ -144,7 +145,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         mine = [j for j in jobs if j.controller == controller and j.axes == point and j.finished]
         veh, steps, ssm = [], [], []
         window = 0.0
-        vehicles = arrived = collisions = late = deadlocks = 0
+        vehicles = arrived = collisions = late = ended = 0
         for job in mine:
             run = Path(job.run_dir)
             summary = json.loads((run / RUN_MARKER).read_text())
@@ -154,7 +155,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             vehicles += int(counts.get("vehicles") or 0)
             arrived += int(counts.get("arrived") or 0)
             collisions += int(counts.get("collisions") or 0)
-            deadlocks += summary.get("deadlock") is not None
+            ended += summary.get("ended_early") is not None
             va = pd.read_csv(run / VEHICLES_FILE, dtype={"vehicle": str})
             late += int((va["depart"].notna() & ~(va["arrival"].notna() & (va["time_loss"] <= LATE_AFTER))).sum())
             veh.append(va)
@@ -181,7 +182,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
             "collisions": collisions if mine else math.nan,
             "late_or_stuck": late if mine else math.nan,
-            "deadlocks": deadlocks if mine else math.nan,  # runs ended early: everyone stood still
+            "ended_early": ended if mine else math.nan,  # runs ended early: a deadlock or memory_limit
             "compute_ms_median": _quantile(cms, 0.5), "compute_ms_p95": _quantile(cms, 0.95),
             "control_steps": len(st), "junction_steps": junction_steps, "deadline_misses": misses,
             "deadline_miss_share": misses / junction_steps if junction_steps else math.nan,

@@ -27,6 +27,11 @@ class Deadlock(NamedTuple):
     time: float
     since: float
     vehicles: int
+    reason: str = "deadlock"
+
+    def message(self) -> str:
+        return (f"t={self.time:.1f} s: every one of the {self.vehicles} vehicles in the network has stood "
+                f"still since t={self.since:.1f} s: a deadlock; the run ends here (scenario.deadlock_time)")
 
 
 class StandstillWatch:
@@ -36,6 +41,10 @@ class StandstillWatch:
     def __init__(self, limit: float, speed: float = STANDSTILL_SPEED):
         self.limit, self.speed = float(limit), float(speed)  # [s], [m/s]
         self._since: float | None = None  # [s] since when everyone stands still
+
+    def check(self, time: float, sim) -> Deadlock | None:
+        """:meth:`update` with the speeds of every vehicle of ``sim`` (sim.sumo.SumoSimulation)."""
+        return self.update(time, sim.speeds())
 
     def update(self, time: float, speeds) -> Deadlock | None:
         """The deadlock, if the vehicles with ``speeds`` [m/s] at ``time`` [s] have all stood

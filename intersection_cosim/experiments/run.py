@@ -27,6 +27,7 @@ from intersection_cosim.control import registry
 from intersection_cosim.control.base import ControlContext, Controller, Diagnostics, World
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.deadlock import StandstillWatch
+from intersection_cosim.experiments.memory_guard import MemoryGuard
 from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_output_options, write_routes,
                                                   write_sumocfg)
 from intersection_cosim.network.build import NET_FILE
@@ -158,7 +159,7 @@ class _Records(NamedTuple):
     step_rows: list[tuple]  # STEP_COLUMNS, one per control step
     game_rows: list[tuple]  # GAME_COLUMNS, one per game played
     game_steps: dict[tuple[str, str], int]  # (id, id) sorted -> control steps the pair played a game
-    deadlock: list  # the run's experiments.deadlock.Deadlock, if it ended in one (at most one entry)
+    ended: list  # why the run ended early (at most one: experiments.deadlock.Deadlock, memory_guard.MemoryLimit)
 
 
 class _Simulated(NamedTuple):
@@ -191,8 +192,8 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     diagnostics = inputs.controller.diagnostics()
     _write_tables(folder, tables, simulated.records.game_rows, diagnostics)
     summary = _summary(scn, simulated.infos, tables, diagnostics, gui)
-    stuck = simulated.records.deadlock
-    summary["deadlock"] = stuck[0]._asdict() if stuck else None
+    ended = simulated.records.ended
+    summary["ended_early"] = ended[0]._asdict() if ended else None
     if simulated.v2x_counts is not None:
         summary["v2x"] = dict(simulated.v2x_counts)
     with open(folder / RUN_MARKER, "w") as fh:
@@ -332,7 +333,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
         channel = (Channel(scn.v2x, inputs.movements, scn.controller.period, s.seed)
                    if scn.v2x.enabled else None)
         records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain, channel,
-                               StandstillWatch(s.deadlock_time))
+                               (StandstillWatch(s.deadlock_time), MemoryGuard(s.memory_limit)))
         final_paths = {**sim.left_paths, **sim.current_path}
         exit_lanes = dict(sim.exit_lane_taken)
         infos = dict(sim.vehicles)  # with the vehicles of the user's own route file
@@ -351,9 +352,10 @@ def _signals_off(scn: Scenario, controller: Controller) -> bool:
 
 
 def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: float, channel=None,
-                 watch: StandstillWatch | None = None) -> _Records:
+                 guards: tuple = ()) -> _Records:
     """Step the started ``sim`` (sim.sumo.SumoSimulation) until ``end_time`` [s], no vehicle is
-    left or ``watch`` (experiments.deadlock) sees every vehicle stand still too long; every ``period_steps`` steps read the world, let ``scheduler`` (sim.network_scheduler's,
+    left or one of ``guards`` ends the run (``check(time, sim)`` not None: experiments.deadlock,
+    experiments.memory_guard); every ``period_steps`` steps read the world, let ``scheduler`` (sim.network_scheduler's,
     one controller per junction) decide, command, show the step to ``observers`` and record it.
     Returns the recorded rows.
 
@@ -380,11 +382,9 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
             for observe in observers:
                 observe(world, step.decisions)
             _record_step(records, world, step)
-            if watch is not None and (stuck := watch.update(world.time, sim.speeds())) is not None:
-                log.warning("t=%.1f s: every one of the %d vehicles in the network has stood still since "
-                            "t=%.1f s: a deadlock; the run ends here (scenario.deadlock_time)",
-                            stuck.time, stuck.vehicles, stuck.since)
-                records.deadlock.append(stuck)
+            if (end := _early_end(guards, world.time, sim)) is not None:
+                log.warning("%s", end.message())
+                records.ended.append(end)
                 break
         if channel is not None and (arrived := channel.deliver(sim.time)) is not None:
             sim.command(arrived)
@@ -393,6 +393,14 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
         sim.advance()  # step
         k += 1
     return records
+
+
+def _early_end(guards: tuple, time: float, sim):
+    """The first guard's reason to end the run at ``time`` [s], or None."""
+    for guard in guards:
+        if (end := guard.check(time, sim)) is not None:
+            return end
+    return None
 
 
 def _record_step(records: _Records, world: World, step) -> None:

@@ -78,7 +78,7 @@ COLUMN_FORMATS = (
     ("deferred_step_share", "share of steps with deferred work [-]", 4),
     *((name, f"{name.replace('_', ' ')} [-]", None) for name in (
         "collisions", "arrived", "vehicles", "departed", "deadline_misses", "fallbacks", "control_steps",
-        "game_steps", "seeds", "runs_ok", "ssm_encounters", "late_or_stuck", "deadlocks", "steps_with_deferred_work",
+        "game_steps", "seeds", "runs_ok", "ssm_encounters", "late_or_stuck", "ended_early", "steps_with_deferred_work",
         "safety_interventions", "box_rule_clearances", "junction_steps", "games")),
     ("junction", "junction", "text"), ("mean_delay", "mean delay [s]", 2),
 )

@@ -25,10 +25,12 @@ class ScenarioSettings:
     exit_distance: float = 50.0  # [m] past the junction where vehicles arrive (leave the network)
     deadlock_time: float = 60.0  # [s] end the run once every vehicle in the network has stood still
     #                              (< 0.1 m/s) this long: a deadlock (experiments/deadlock.py); 0: never
+    memory_limit: float = 8.0  # [GB] end the run once its process holds more (SUMO's SSM device grows
+    #                            with long queues; experiments/memory_guard.py); 0: never
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "duration", "step_length", "exit_distance")
-        problems += non_negative(self, "drain", "deadlock_time")
+        problems += non_negative(self, "drain", "deadlock_time", "memory_limit")
         if self.junction_type not in JUNCTION_TYPES:
             problems.append(("junction_type", f"must be one of {', '.join(JUNCTION_TYPES)}"))
         if self.seed < 0:

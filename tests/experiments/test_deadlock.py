@@ -54,14 +54,14 @@ def _stopping_run(tmp_path, deadlock_time: float):
 
 def test_a_run_where_everyone_stands_still_ends_after_deadlock_time(tmp_path):
     summary, steps = _stopping_run(tmp_path, 10.0)
-    stuck = summary["deadlock"]
-    assert stuck is not None and stuck["vehicles"] == 1
+    stuck = summary["ended_early"]
+    assert stuck is not None and stuck["reason"] == "deadlock" and stuck["vehicles"] == 1
     assert 1.0 < stuck["since"] < 8.0  # 30 m down its first lane at up to 13.9 m/s
     assert stuck["time"] == pytest.approx(stuck["since"] + 10.0, abs=0.11)
     assert steps["time"].max() == pytest.approx(stuck["time"], abs=0.11)  # nothing recorded after it
     assert summary["counts"]["arrived"] == 0 and summary["counts"]["departed"] == 1
     on_disk = json.loads((tmp_path / "run10" / "summary.json").read_text())
-    assert on_disk["deadlock"] == stuck and on_disk["settings"]["scenario"]["deadlock_time"] == 10.0
+    assert on_disk["ended_early"] == stuck and on_disk["settings"]["scenario"]["deadlock_time"] == 10.0
     # without the watch the same run goes on to its end (duration + drain = 80 s)
     free, free_steps = _stopping_run(tmp_path, 0.0)
-    assert free["deadlock"] is None and free_steps["time"].max() > 79.0
+    assert free["ended_early"] is None and free_steps["time"].max() > 79.0
