@@ -7,6 +7,10 @@ period later when nothing the game depends on moved: both players are where thei
 (conflict points, who follows whom) are the ones solved, and each player's leader outside the
 game is predicted where it was (within ``solo_leader_tol``). Such a game is not solved again,
 at most ``game_resolve_steps`` - 1 steps in a row; its plans restart from the measured states.
+The two must also be well apart in time at every conflict point of their game: by the kept plans,
+at least ``game_reuse_gap`` [s] between their arrivals, a player not there within the horizon
+counted as arriving at its end (so two players both beyond it are not known to be apart). Near the safety filter's threshold a small change of the plans can flip who goes first
+(the filter holds the one that would pass too close), so such a pair is solved every step.
 Only a solve that converged in its first iteration is kept (its warm start, the equilibrium before,
 was already one: the game is steady; a game still moving may switch between equilibria, which
 only a fresh solve finds), of a single exit-lane combination (a lane choice is decided anew), never
@@ -16,6 +20,8 @@ for a player the safety filter held back or one that crosses human drivers.
 from __future__ import annotations
 
 from typing import NamedTuple
+
+import numpy as np
 
 from intersection_cosim.control.base import World
 from intersection_cosim.control.plan_memory import GameKey, PlanMemory
@@ -67,6 +73,8 @@ class GameReuse:
         if plans is None or not all(self._on_plan(world, k, plan, pl) for k, plan, pl in
                                     zip((a, b), plans, problem.players)):
             return None
+        if not self._apart(plans, problem.interactions):
+            return None
         lag = (last.age + 1) * self.memory.shift  # [plan steps] since the solve
         for then, now in zip(last.leaders, (p.leader for p in problem.players)):
             if (then is None) != (now is None) or (now is not None and prediction_moved(
@@ -75,9 +83,26 @@ class GameReuse:
         self._last[key] = last._replace(age=last.age + 1)
         return tuple(self.memory.from_state(world, k, plan.accelerations) for k, plan in zip((a, b), plans)), last.combo
 
+    def _apart(self, plans: tuple, interactions: tuple) -> bool:
+        """Whether, by ``plans``, the players arrive at each of their conflict points at least
+        ``game_reuse_gap`` [s] apart (a player not there within the horizon: at its end, the
+        earliest it may arrive)."""
+        for it in interactions:
+            if it.lateral and abs(arrival(plans[it.i], it.s_cp_i) - arrival(plans[it.j], it.s_cp_j)) < \
+                    self.policy.game_reuse_gap:
+                return False
+        return True
+
     def _on_plan(self, world: World, k: int, plan: Plan, player) -> bool:
         """Whether vehicle k is where ``plan`` (shifted) puts it and the plan keeps its speed cap."""
         v_cap = player.v_max if player.v_max is not None else self.v_max  # [m/s]
         return (abs(plan.speeds[0] - float(world.v[k])) <= self.policy.solo_speed_tol
                 and abs(plan.positions[0] - float(world.s[k])) <= self.policy.solo_position_tol
                 and float(plan.speeds.max()) <= v_cap + 1e-6)
+
+
+def arrival(plan: Plan, s_point: float) -> float:
+    """[s] when ``plan`` first reaches arc length ``s_point`` [m] (0 if it is there already); the
+    end of its horizon when it does not within it."""
+    reached = np.flatnonzero(plan.positions >= s_point)
+    return float(reached[0] if reached.size else plan.steps) * plan.dt

@@ -25,6 +25,8 @@ class PolicySettings:
     #                              whose inputs did not change (control/solo.py)
     game_resolve_steps: int = 5  # [-] most control steps between solves of a pair's game whose
     #                              inputs did not change (control/game_reuse.py; 1: solve every step)
+    game_reuse_gap: float = 1.0  # [s] ... and whose players' planned arrivals at each of their
+    #                              conflict points are at least this far apart
     solo_max_iter: int = 1  # [-] SQP steps of a solo vehicle's best response per control step
     #                         (real-time iteration: an unconverged plan is applied and the SQP
     #                         goes on from it, shifted, at the next step; games are not capped)
@@ -54,7 +56,7 @@ class PolicySettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
-        problems += non_negative(self, "solo_leader_tol", "solo_speed_tol", "solo_position_tol", "solo_reuse_residual",
+        problems += non_negative(self, "solo_leader_tol", "solo_speed_tol", "solo_position_tol", "solo_reuse_residual", "game_reuse_gap",
                                  "lane_choice_range", "anytime_reserve")
         if not self.anytime_reserve < 1:
             problems.append(("anytime_reserve", "must be < 1"))

@@ -19,11 +19,12 @@ LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
 STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
 
 
-def _controller(net_file, game_resolve_steps: int) -> tuple[GameController, list]:
+def _controller(net_file, game_resolve_steps: int, game_reuse_gap: float = 1.0) -> tuple[GameController, list]:
     """A Nash controller (ETM on, 0.1 s period) and the list of iteration counts of the games it
     solves from now on."""
     c = GameController("nash")
-    settings = GameControllerSettings(policy=PolicySettings(game_resolve_steps=game_resolve_steps))
+    settings = GameControllerSettings(policy=PolicySettings(game_resolve_steps=game_resolve_steps,
+                                                            game_reuse_gap=game_reuse_gap))
     c.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
                            settings=settings, etm=True))
     solves = []
@@ -72,16 +73,31 @@ def test_a_steady_game_is_kept_between_solves_at_most_game_resolve_steps_apart(p
 
 def test_a_kept_game_starts_its_plans_from_the_measured_states(paths, net_file):
     c, solves = _controller(net_file, 5)
-    world = _start(c, paths)
-    for n in range(4):
+    world, kept = _start(c, paths), 0
+    for n in range(10):
         before = len(solves)
         c.decide(world, time.perf_counter() + 10.0)
-        if len(solves) == before:  # kept
+        if len(solves) == before:
+            kept += 1
             for k, v in enumerate(("L", "S")):
                 plan = c.memory.plans[v]
                 assert plan.positions[0] == pytest.approx(world.s[k]) and plan.speeds[0] == pytest.approx(world.v[k])
         world = _as_planned(c, paths, 0.1 * (n + 1))
-    assert len(solves) < 4
+    assert kept >= 3
+
+
+def test_a_pair_not_known_to_be_apart_at_its_conflict_point_is_solved_every_step(paths, net_file):
+    """No two plans of a 3 s horizon arrive 10 s apart: with game_reuse_gap 10 s nothing is kept;
+    at 0 s the same steady game is kept."""
+    counts = {}
+    for gap in (10.0, 0.0):
+        c, solves = _controller(net_file, 5, game_reuse_gap=gap)
+        world = _start(c, paths)
+        for n in range(10):
+            c.decide(world, time.perf_counter() + 10.0)
+            world = _as_planned(c, paths, 0.1 * (n + 1))
+        counts[gap] = len(solves)
+    assert counts[10.0] == 10 and counts[0.0] <= 6
 
 
 def test_a_player_off_its_plan_or_a_resolve_period_of_one_solves_every_step(paths, net_file):
@@ -98,3 +114,14 @@ def test_a_player_off_its_plan_or_a_resolve_period_of_one_solves_every_step(path
         world = _as_planned(every, paths, 0.1 * (n + 1))
     assert len(solves_every) == 6
     assert np.isfinite([every.memory.plans[v].accelerations for v in ("L", "S")]).all()
+
+
+def test_arrival_is_the_first_plan_time_at_the_point_or_the_horizon_end():
+    from intersection_cosim.control.game_reuse import arrival
+    from intersection_cosim.games.problem import Plan
+
+    plan = Plan.from_accelerations(0.0, 10.0, np.zeros(30), 0.1)  # 10 m/s from s = 0 for 3 s
+    assert arrival(plan, 0.0) == 0.0
+    assert arrival(plan, 9.95) == pytest.approx(1.0)  # 10 m after 1.0 s
+    assert arrival(plan, 25.0) == pytest.approx(2.5)
+    assert arrival(plan, 31.0) == pytest.approx(3.0)  # not within the 3 s horizon: its end
