@@ -5,16 +5,20 @@ A pair's open-loop equilibrium, shifted by one control period, answers the same 
 period later when nothing the game depends on moved: both players are where their plans put them
 (within ``solo_position_tol`` [m] and ``solo_speed_tol`` [m/s]), the exit lanes and interactions
 (conflict points, who follows whom) are the ones solved, and each player's leader outside the
-game is predicted where it was (within ``solo_leader_tol``). Such a game is not solved again,
-at most ``game_resolve_steps`` - 1 steps in a row; its plans restart from the measured states.
-The two must also be well apart in time at every conflict point of their game: by the kept plans,
-at least ``game_reuse_gap`` [s] between their arrivals, a player not there within the horizon
-counted as arriving at its end (so two players both beyond it are not known to be apart). Near the safety filter's threshold a small change of the plans can flip who goes first
-(the filter holds the one that would pass too close), so such a pair is solved every step.
-Only a solve that converged in its first iteration is kept (its warm start, the equilibrium before,
-was already one: the game is steady; a game still moving may switch between equilibria, which
-only a fresh solve finds), of a single exit-lane combination (a lane choice is decided anew), never
-for a player the safety filter held back or one that crosses human drivers.
+game is predicted where it was (within ``solo_leader_tol``). Such a game is not solved again, at
+most ``game_resolve_steps`` - 1 steps in a row; its plans restart from the measured states.
+
+Three more conditions keep the decisions (docs/design.md has the measurements):
+
+* only a solve that converged in its first iteration is kept: its warm start, the equilibrium of
+  the step before, already was one, so the game is steady; a game still moving may switch
+  between equilibria, which only a fresh solve finds;
+* by the kept plans the two reach each of their conflict points at least ``game_reuse_gap`` [s]
+  apart, a player not there within the horizon counted at its end (two players both beyond it
+  are not known to be apart): near the safety filter's threshold a small change of the plans
+  flips whom it holds, so such a pair is solved every step;
+* one exit-lane combination only (a lane choice is decided anew), no player the safety filter
+  held back at the last step, none that crosses human drivers.
 """
 
 from __future__ import annotations
