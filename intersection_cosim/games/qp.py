@@ -85,9 +85,11 @@ class QPWorkspace:
         self._scale = 1.0
         self.solves = 0
 
-    def speed_rows(self, v0: float, v_cap: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
-        """Scaled bounds of the N speed rows for 0 <= v_{k+1} <= v_cap, from v0 [m/s]."""
+    def speed_rows(self, v0, v_cap, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Scaled bounds of the N speed rows for 0 <= v_{k+1} <= v_cap, from v0 [m/s]: (N,) each
+        for scalar v0 and v_cap, (m, N) for arrays of m vehicles."""
         rs = self.row_scale[self.n:]
+        v0, v_cap = np.asarray(v0, dtype=float)[..., None], np.asarray(v_cap, dtype=float)[..., None]
         return (-v0 / dt) * rs, ((v_cap - v0) / dt) * rs
 
     def solve(self, H: np.ndarray, g: np.ndarray, a: np.ndarray, l: np.ndarray, u: np.ndarray,

@@ -312,8 +312,7 @@ class SoloBatch:
         lo = np.maximum(a - st.delta[rp, None], self.a_lo[rp, None])
         hi = np.minimum(a + st.delta[rp, None], self.a_hi[rp, None])
         ws = workspace(n, self.gs, ("nash", 0))  # the slot solo_response uses
-        rs = ws.row_scale[n:]
-        sp_lo, sp_hi = (-self.v0[rp] / self.dt)[:, None] * rs, ((self.v_cap[rp] - self.v0[rp]) / self.dt)[:, None] * rs
+        sp_lo, sp_hi = ws.speed_rows(self.v0[rp], self.v_cap[rp], self.dt)
         x = np.empty_like(a)
         pred = np.zeros(len(rp))
         ok = np.ones(len(rp), bool)
