@@ -56,8 +56,8 @@ class PolicySettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
-        problems += non_negative(self, "solo_leader_tol", "solo_speed_tol", "solo_position_tol", "solo_reuse_residual", "game_reuse_gap",
-                                 "lane_choice_range", "anytime_reserve")
+        problems += non_negative(self, "solo_leader_tol", "solo_speed_tol", "solo_position_tol", "solo_reuse_residual",
+                                 "game_reuse_gap", "lane_choice_range", "anytime_reserve")
         if not self.anytime_reserve < 1:
             problems.append(("anytime_reserve", "must be < 1"))
         return problems

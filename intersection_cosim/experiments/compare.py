@@ -17,8 +17,9 @@ collisions summed; ``late_or_stuck``: departed vehicles that never arrived (a de
 more than 60 s against free flow (tripinfo's timeLoss: a queue that does not drain), whatever the
 length of their routes, so the same bound holds on a small junction and on a long OSM approach;
 ``ended_early``: runs that ended before their end because every vehicle stood still (a deadlock,
-experiments.deadlock) or past scenario.memory_limit (experiments.memory_guard); compute time per control step (summed over the
-junctions' controllers of a net with several) median and 95th percentile over all steps, and
+experiments.deadlock) or past scenario.memory_limit (experiments.memory_guard); compute time per
+control step (summed over the junctions' controllers of a net with several) median and 95th
+percentile over all steps, and
 the share of junction steps (one junction's controller in one control step, each with its own
 budget) that missed their deadline.
 """
@@ -55,7 +56,8 @@ LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against fre
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
-           "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps", "deadline_misses",
+           "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps",
+           "deadline_misses",
            "deadline_miss_share",
            "deferred_step_share"]
 # Metrics that get a figure against demand, with axis labels.

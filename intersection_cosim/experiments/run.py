@@ -159,7 +159,8 @@ class _Records(NamedTuple):
     step_rows: list[tuple]  # STEP_COLUMNS, one per control step
     game_rows: list[tuple]  # GAME_COLUMNS, one per game played
     game_steps: dict[tuple[str, str], int]  # (id, id) sorted -> control steps the pair played a game
-    ended: list  # why the run ended early (at most one: experiments.deadlock.Deadlock, memory_guard.MemoryLimit)
+    ended: list  # why the run ended early: at most one experiments.deadlock.Deadlock or
+    #              experiments.memory_guard.MemoryLimit
 
 
 class _Simulated(NamedTuple):
@@ -355,9 +356,9 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
                  guards: tuple = ()) -> _Records:
     """Step the started ``sim`` (sim.sumo.SumoSimulation) until ``end_time`` [s], no vehicle is
     left or one of ``guards`` ends the run (``check(time, sim)`` not None: experiments.deadlock,
-    experiments.memory_guard); every ``period_steps`` steps read the world, let ``scheduler`` (sim.network_scheduler's,
-    one controller per junction) decide, command, show the step to ``observers`` and record it.
-    Returns the recorded rows.
+    experiments.memory_guard); every ``period_steps`` steps read the world, let ``scheduler``
+    (sim.network_scheduler's, one controller per junction) decide, command, show the step to
+    ``observers`` and record it. Returns the recorded rows.
 
     With a ``channel`` (v2x.Channel) the vehicles send their states when it says so, the
     controller decides on the World the channel shows it, and its decisions reach SUMO when the

@@ -59,7 +59,8 @@ def test_compare_low_demand_and_rerun(tmp_path, capsys):
     assert list(table["controller"]) == ["fcfs", "sumo-priority"]
     assert (table["runs_ok"] == 1).all()
     assert (table["throughput_veh_h"] > 0).all()
-    assert (table["collisions"] == 0).all() and (table["late_or_stuck"] == 0).all() and (table["ended_early"] == 0).all()
+    assert (table["collisions"] == 0).all() and (table["late_or_stuck"] == 0).all()
+    assert (table["ended_early"] == 0).all()
     assert table["demand_veh_h"].tolist() == pytest.approx([600.0, 600.0])
     assert table["travel_time_mean"].notna().all() and table["compute_ms_median"].notna().all()
     for metric in FIGURE_METRICS:
