@@ -3,8 +3,10 @@
 Games are played most urgent first, then solo vehicles nearest their stop line. Before each
 solve the controller asks whether its estimated wall time, with room for a slow one, still fits
 before the step's cutoff (the deadline less a reserve for the safety filter); work that does not
-fit is deferred and its vehicles keep their last plan, shifted. The estimates are running means
-of the measured solve times.
+fit is deferred and its vehicles keep their last plan, shifted. The estimates of games are running
+means of the measured solve times; the solo vehicles are solved in one batch
+(games.solo_batch), whose time is a fixed part (one pass of array work) plus a part per problem,
+estimated by a running least-squares fit of the measured batches.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ DEFER_DECAY = 0.95  # [-] a deferral shrinks the estimate, so one slow solve can
 SMOOTHING = 0.2  # [-] weight of the newest measurement in the running mean
 GAME_COLD_S = 0.004  # [s] first estimate of one exit-lane combination of a game without warm start
 GAME_WARM_S = 0.002  # [s] ... with a warm start
-SOLO_S = 0.001  # [s] first estimate of one solo solve
+SOLO_S = 0.001  # [s] first estimate of one solo solve in a batch
+SOLO_FIXED_S = 0.0005  # [s] first estimate of a solo batch's fixed part
 
 
 class SolveTimeEstimate:
@@ -38,12 +41,53 @@ class SolveTimeEstimate:
         self.seconds = (1.0 - SMOOTHING) * self.seconds + SMOOTHING * seconds
 
 
+class BatchTimeEstimate:
+    """Wall time of a batch of ``units`` solves [s] as ``fixed + per_unit * units``, fitted by
+    least squares over the measured batches, each older batch weighing (1 - SMOOTHING) times
+    less. A running mean per solve would be set by the many small batches, whose fixed part it
+    spreads over few solves, and overestimate the large ones."""
+
+    def __init__(self, fixed: float, per_unit: float):
+        self.fixed, self.per_unit = fixed, per_unit  # [s], [s]
+        self._moments = [0.0] * 5  # weighted sums of 1, u, t, u^2, u t
+
+    def seconds(self, units: int) -> float:
+        """[s] estimated wall time of ``units`` solves in one batch."""
+        return self.fixed + self.per_unit * units
+
+    def fits(self, units: int, cutoff: float) -> bool:
+        """Whether a batch of ``units``, at ``SLOW_SOLVE_FACTOR`` times its estimate, ends before
+        ``cutoff`` (a ``time.perf_counter`` value)."""
+        return time.perf_counter() + SLOW_SOLVE_FACTOR * self.seconds(units) <= cutoff
+
+    def deferred(self) -> None:
+        """A deferral shrinks the estimate (DEFER_DECAY), as SolveTimeEstimate's."""
+        self.fixed *= DEFER_DECAY
+        self.per_unit *= DEFER_DECAY
+        self._moments[2] *= DEFER_DECAY
+        self._moments[4] *= DEFER_DECAY
+
+    def measured(self, units: int, seconds: float) -> None:
+        """Fold in one batch of ``units`` solves that took ``seconds`` [s]."""
+        keep = 1.0 - SMOOTHING
+        new = (1.0, float(units), seconds, float(units) ** 2, units * seconds)
+        self._moments = [keep * m + x for m, x in zip(self._moments, new)]
+        w, su, st, suu, sut = self._moments
+        mu, mt = su / w, st / w
+        var = suu / w - mu * mu
+        slope = (sut / w - mu * mt) / var if var > 1e-9 * max(mu * mu, 1.0) else (mt - self.fixed) / max(mu, 1.0)
+        self.per_unit = max(slope, 0.0)
+        self.fixed = mt - self.per_unit * mu
+        if self.fixed < 0.0:  # no fixed part the data can show: all of it per solve
+            self.fixed, self.per_unit = 0.0, mt / max(mu, 1.0)
+
+
 class AnytimeSchedule:
-    """The estimates of a controller: games (cold and warm) and solo solves."""
+    """The estimates of a controller: games (cold and warm) and the solo batch."""
 
     def __init__(self):
         self.game = {False: SolveTimeEstimate(GAME_COLD_S), True: SolveTimeEstimate(GAME_WARM_S)}
-        self.solo = SolveTimeEstimate(SOLO_S)
+        self.solo = BatchTimeEstimate(SOLO_FIXED_S, SOLO_S)
 
 
 def step_cutoff(deadline: float, reserve: float) -> float:

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from intersection_cosim.control.anytime import SolveTimeEstimate
+from intersection_cosim.control.anytime import BatchTimeEstimate
 from intersection_cosim.control.base import World
 from intersection_cosim.control.lane_options import LaneChangeCosts
 from intersection_cosim.control.plan_memory import PlanMemory, SoloKey
@@ -64,7 +64,7 @@ class SoloPlanner:
         self._last.pop(vehicle, None)
 
     def plan_all(self, world: World, ks: list[int], options, relations: Relations, held_before: frozenset[str],
-                 estimate: SolveTimeEstimate, cutoff: float) -> dict[int, SoloOutcome]:
+                 estimate: BatchTimeEstimate, cutoff: float) -> dict[int, SoloOutcome]:
         """Best responses of the solo vehicles ``ks`` (most urgent first), each with its exit-lane
         choice among ``options[k]``: a vehicle whose problem did not change keeps its plan
         (:meth:`reusable`); the others are solved together (games.solo_batch), as many as the
@@ -94,11 +94,11 @@ class SoloPlanner:
         if solved:
             t0 = time.perf_counter()
             outcomes = self._solve_all(world, solved, held_before)
-            estimate.measured((time.perf_counter() - t0) / units)  # [s] per problem, the unit of fits()
+            estimate.measured(units, time.perf_counter() - t0)
             out.update(outcomes)
         return out
 
-    def _defer(self, world: World, k: int, estimate: SolveTimeEstimate) -> SoloOutcome:
+    def _defer(self, world: World, k: int, estimate: BatchTimeEstimate) -> SoloOutcome:
         """Vehicle k keeps its last plan, shifted (its solve does not fit the step)."""
         vid = world.ids[k]
         estimate.deferred()

@@ -5,7 +5,7 @@ import time
 import pytest
 
 from intersection_cosim.control.anytime import (DEFER_DECAY, SLOW_SOLVE_FACTOR, SMOOTHING, AnytimeSchedule,
-                                                SolveTimeEstimate, step_cutoff)
+                                                BatchTimeEstimate, SolveTimeEstimate, step_cutoff)
 
 
 def test_a_solve_fits_only_if_its_slow_case_ends_before_the_cutoff():
@@ -24,7 +24,7 @@ def test_the_estimate_is_a_running_mean_and_shrinks_on_deferral():
     est.deferred()
     assert est.seconds == pytest.approx(DEFER_DECAY * 0.006)
     sched = AnytimeSchedule()
-    assert sched.game[False].seconds > sched.game[True].seconds > sched.solo.seconds  # cold > warm > solo
+    assert sched.game[False].seconds > sched.game[True].seconds > sched.solo.seconds(1)  # cold > warm > solo
 
 
 def test_the_cutoff_keeps_the_reserve_of_the_time_left():
@@ -32,3 +32,31 @@ def test_the_cutoff_keeps_the_reserve_of_the_time_left():
     cut = step_cutoff(deadline, 0.25)
     assert deadline - 0.25 <= cut <= deadline - 0.24
     assert step_cutoff(deadline - 2.0, 0.25) == deadline - 2.0  # past it: no time to keep
+
+
+def test_a_batch_estimate_learns_its_fixed_and_per_solve_parts():
+    est = BatchTimeEstimate(0.0005, 0.001)
+    for k in range(60):  # batches of 1..12 solves costing 0.3 ms + 0.2 ms per solve
+        units = 1 + (7 * k) % 12
+        est.measured(units, 0.0003 + 0.0002 * units)
+    assert est.fixed == pytest.approx(0.0003, rel=1e-6) and est.per_unit == pytest.approx(0.0002, rel=1e-6)
+    # a running mean per solve, fed the same batches, overestimates a batch of 30 by a fifth or more
+    mean = SolveTimeEstimate(0.001)
+    for k in range(60):
+        units = 1 + (7 * k) % 12
+        mean.measured((0.0003 + 0.0002 * units) / units)
+    assert 30 * mean.seconds > 1.2 * est.seconds(30)
+    now = time.perf_counter()
+    assert est.fits(30, now + SLOW_SOLVE_FACTOR * 0.0063 + 0.001) and not est.fits(30, now + 0.0063)
+
+
+def test_a_batch_estimate_of_one_size_and_after_a_deferral():
+    est = BatchTimeEstimate(0.0005, 0.001)
+    for _ in range(30):
+        est.measured(4, 0.0025)  # always 4 solves: the fixed part stays, the rest is per solve
+    assert est.seconds(4) == pytest.approx(0.0025, rel=1e-3) and est.fixed == pytest.approx(0.0005)
+    before = est.seconds(4)
+    est.deferred()
+    assert est.seconds(4) == pytest.approx(DEFER_DECAY * before)
+    est.measured(4, 0.0025 * DEFER_DECAY)  # the shrunk estimate is not undone by the fit
+    assert est.seconds(4) == pytest.approx(DEFER_DECAY * before, rel=1e-3)
