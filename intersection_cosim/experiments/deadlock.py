@@ -7,8 +7,9 @@ therefore ends a run once every vehicle in the network has been below ``speed`` 
 ``deadlock_time`` seconds of simulated time; the vehicles still in the network count as not
 arrived (late or stuck) and summary.json says when and how many.
 
-A vehicle at a planned stop of the user's route file stands still too: with such stops, set
-``deadlock_time`` longer than the longest one, or 0 to never end a run early.
+A vehicle at a planned stop of the user's route file stands still too, and so do vehicles that
+all wait at a red light: the default (120 s) is longer than the reds of most real signal programmes;
+with longer stops set ``deadlock_time`` longer than the longest one, or 0 to never end a run early.
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ class ScenarioSettings:
     seed: int = 42  # [-] SUMO's --seed and the seed of every random draw (flows, kappa)
     junction_type: str = "priority"  # [-] SUMO node type of the centre for the sumo controller
     exit_distance: float = 50.0  # [m] past the junction where vehicles arrive (leave the network)
-    deadlock_time: float = 60.0  # [s] end the run once every vehicle in the network has stood still
+    deadlock_time: float = 120.0  # [s] end the run once every vehicle in the network has stood still
     #                              (< 0.1 m/s) this long: a deadlock (experiments/deadlock.py); 0: never
     memory_limit: float = 8.0  # [GB] end the run once its process holds more (SUMO's SSM device grows
     #                            with long queues; experiments/memory_guard.py); 0: never
