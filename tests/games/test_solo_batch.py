@@ -105,3 +105,28 @@ def test_a_bad_problem_fails_alone_and_other_kinds_go_one_by_one():
     (res,) = solo_responses([pair], gs, MS)
     assert res.status in ("converged", "iteration cap") and len(res.plans) == 2
 
+
+
+def test_batches_of_other_sizes_and_horizons_in_between_change_no_answer():
+    """The batch's work arrays are kept between calls (per thread): a batch solved after larger
+    ones and after one of another horizon (N = 20 instead of 40) gets bit for bit the answers it
+    got first, and its plans are its own (arrays no later batch writes into)."""
+    gs = _settings(1)
+    problems, warms = _problems(12, seed=11)
+    reset_workspaces()
+    first = solo_responses(problems, gs, MS, warms)
+    kept = [r.plans[0].accelerations.copy() for r in first]
+    big, big_warms = _problems(50, seed=12)
+    solo_responses(big, gs, MS, big_warms)
+    short = dataclasses.replace(gs, problem=dataclasses.replace(gs.problem, horizon=2.0))
+    n_short = short.problem.steps
+    assert n_short == 20
+    shorts = [Problem((Player(-30.0 + i, 4.0, 0.5, leader=(np.linspace(-20.0, 0.0, n_short) + i, np.full(n_short, 3.0)),
+                              name=f"s{i}"),)) for i in range(8)]
+    assert all(r.status in ("converged", "iteration cap") for r in solo_responses(shorts, short, MS))
+    reset_workspaces()
+    again = solo_responses(problems, gs, MS, warms)
+    for a, b, k in zip(first, again, kept):
+        assert np.array_equal(a.plans[0].accelerations, b.plans[0].accelerations)
+        assert np.array_equal(a.plans[0].accelerations, k)
+        assert a.costs[0] == b.costs[0]
