@@ -77,6 +77,7 @@ class PlanMemory:
         self.options: dict[str, str] = {}  # exit lane chosen at the last step, per vehicle
         self._warm: dict[WarmKey, tuple[float, tuple[Plan, ...]]] = {}  # key -> ([s] solved at, plans)
         self._shifts: dict[int, tuple[Plan, Plan]] = {}  # id(plan) -> (plan, shift_plan(plan))
+        self._anchored: dict[str, tuple[Plan, float, float, Plan]] = {}  # vehicle -> (applied plan, s [m], v [m/s], kept plan)
 
     # ------------------------------------------------------------ applied plans
     def apply(self, vehicle: str, plan: Plan, option: str) -> None:
@@ -87,6 +88,7 @@ class PlanMemory:
         """Drop a vehicle handed back to SUMO."""
         self.plans.pop(vehicle, None)
         self.options.pop(vehicle, None)
+        self._anchored.pop(vehicle, None)
 
     def prune_warm(self, present: set[str]) -> None:
         """Drop the warm starts of problems with a vehicle no longer controlled."""
@@ -126,10 +128,26 @@ class PlanMemory:
     def kept_plan(self, world: World, k: int, comfort_brake: float) -> Plan:
         """Vehicle k's last applied plan shifted by one period and started from its measured
         state; braking at ``comfort_brake`` [m/s^2] if it has none."""
-        plan = self.plans.get(world.ids[k])
+        plan = self.anchored(world, k)
         if plan is not None:
-            return self.from_state(world, k, self.shifted(plan).accelerations)
+            return plan
         return self.from_state(world, k, np.full(self.steps, -comfort_brake))
+
+    def anchored(self, world: World, k: int) -> Plan | None:
+        """Vehicle k's last applied plan shifted by one period and started from its measured
+        state, None when it has none. Computed once per applied plan and state: a step asks for
+        it as the vehicle's kept plan, in its reuse check and as its follower's leader prediction."""
+        vid = world.ids[k]
+        plan = self.plans.get(vid)
+        if plan is None:
+            return None
+        s, v = float(world.s[k]), float(world.v[k])  # [m], [m/s]
+        hit = self._anchored.get(vid)
+        if hit is not None and hit[0] is plan and hit[1] == s and hit[2] == v:
+            return hit[3]
+        out = Plan.from_accelerations(s, v, self.shifted(plan).accelerations, self.dt)
+        self._anchored[vid] = (plan, s, v, out)
+        return out
 
     def driven_plan(self, vehicle: str, option: str) -> Plan | None:
         """The plan ``vehicle`` drives (applied at the last step), shifted by one period, if it

@@ -28,9 +28,9 @@ FAR = 1.0e4  # [m] added to a leader's predicted position where it no longer con
 def leader_trajectory(world: World, leader: Leader, memory: PlanMemory) -> tuple[np.ndarray, np.ndarray]:
     """[m], [m/s] the leader's predicted positions (in its own path) and speeds s_1..s_N, v_1..v_N."""
     k = leader.vehicle
-    plan = memory.plans.get(world.ids[k])
-    plan = memory.from_state(world, k, memory.shifted(plan).accelerations) if plan is not None \
-        else memory.coasting_plan(world, k)
+    plan = memory.anchored(world, k)
+    if plan is None:
+        plan = memory.coasting_plan(world, k)
     s, v = plan.positions[1:], plan.speeds[1:]
     parted = s > leader.until
     if parted.any():  # past the end of the shared stretch the leader is out of the way

@@ -193,7 +193,7 @@ class SoloPlanner:
                                                                  player_now.leader_length):
             return None
         self._last[vid] = _LastSolve(last.age + 1, option, last.leader)
-        return self.memory.from_state(world, k, plan.accelerations)
+        return self.memory.anchored(world, k)  # the shifted plan above, from the measured state
 
     def _leader_moved(self, plan: Plan, last: _LastSolve, leader_now: tuple, length: float | None = None) -> bool:
         """Whether the leader's prediction moved since the solve where it matters to ``plan``

@@ -67,3 +67,31 @@ def test_driven_and_kept_plans():
     assert np.allclose(braking.accelerations, -2.0) and braking.speeds[0] == 4.0
     memory.forget("A")
     assert memory.driven_plan("A", "middle") is None
+
+
+def test_the_kept_plan_is_built_once_per_applied_plan_and_measured_state():
+    """anchored: the applied plan shifted and started from the measured state, the same object
+    while plan and state stay (the step asks for it three times), a new one when either moves;
+    None without a plan, and none once the vehicle is forgotten."""
+    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT, a_max=2.5, v_max=13.89)
+
+    class _World:
+        s = np.array([12.0])  # [m]
+        v = np.array([6.0])  # [m/s]
+        ids = ["A"]
+
+    assert memory.anchored(_World, 0) is None
+    plan = _plan()
+    memory.apply("A", plan, "inner")
+    first = memory.anchored(_World, 0)
+    assert first is memory.anchored(_World, 0) and first is memory.kept_plan(_World, 0, comfort_brake=2.0)
+    assert first.positions[0] == 12.0 and first.speeds[0] == 6.0
+    assert np.array_equal(first.accelerations, memory.shifted(plan).accelerations)
+    _World.v = np.array([6.5])
+    moved = memory.anchored(_World, 0)
+    assert moved is not first and moved.speeds[0] == 6.5
+    assert moved.positions[5] > first.positions[5]  # 0.5 m/s faster: 0.25 m further after 0.5 s
+    memory.apply("A", _plan(1.0), "inner")
+    assert memory.anchored(_World, 0).accelerations[0] == memory.shifted(memory.plans["A"]).accelerations[0]
+    memory.forget("A")
+    assert memory.anchored(_World, 0) is None
