@@ -26,7 +26,11 @@ warmup is shortened (never below ``--min-noetm-window`` s), which the JSON's ``n
 
 A table goes to stderr; the last line of stdout is one JSON object.
 
-    python scripts/bench_scale.py [--duration 50] [--warmup 30] [--max-noetm-s 180]
+SUMO's step in a jam is mostly its SSM device, which every run records by default; with
+``--no-ssm`` the runs go without it (the controller's steps are the same) and the ratio is
+against SUMO's bare step.
+
+    python scripts/bench_scale.py [--duration 50] [--warmup 30] [--max-noetm-s 180] [--no-ssm]
 """
 
 from __future__ import annotations
@@ -52,11 +56,11 @@ TOTAL_RATES = {10: 2400.0, 20: 4200.0, 40: 6500.0, 80: 9000.0}  # congestion: n 
 APPROACHES = ("north", "south", "east", "west")
 MOVEMENTS = ("left", "straight", "right")
 
-def build_scenario(total_rate: float, duration: float, seed: int, etm: bool):
+def build_scenario(total_rate: float, duration: float, seed: int, etm: bool, ssm: bool = True):
     per_flow = total_rate / (len(APPROACHES) * len(MOVEMENTS))
     data = {
         "scenario": {"name": f"scale_{int(total_rate)}", "duration": duration, "drain": 0.0,
-                     "step_length": 0.05, "seed": seed},
+                     "step_length": 0.05, "seed": seed, "ssm": ssm},
         "controller": {"kind": "nash", "period": 0.1, "budget_ms": 10000.0, "etm": True,
                        "realtime": False},
         "flow": [
@@ -139,7 +143,7 @@ def run_levels(args, notes: list[str]):
                     duration = _noetm_duration(target, prev_noetm, args, notes)
                     if duration is None:
                         continue
-                scn = build_scenario(TOTAL_RATES[target], duration, args.seed, etm)
+                scn = build_scenario(TOTAL_RATES[target], duration, args.seed, etm, not args.no_ssm)
                 r = run_one(scn, args.warmup, sumo_ms, sumo_t)
                 st = r["steps"]
                 print(f"  target {target:3d} etm={etm!s:5}: wall {r['wall_s']:6.1f} s, n median "
@@ -218,6 +222,9 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=50.0, help="[s] simulated time per run")
     ap.add_argument("--warmup", type=float, default=30.0, help="[s] control steps before are dropped")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--no-ssm", action="store_true",
+                    help="run without SUMO's SSM device ([scenario] ssm = false): the same control "
+                         "steps, SUMO's bare step as the ratio's denominator")
     ap.add_argument("--max-noetm-s", type=float, default=180.0,
                     help="[s] skip a no-ETM run (below the last level: shorten it) whose "
                          "predicted wall time exceeds this")
@@ -245,7 +252,7 @@ def main() -> int:
     print_table(bins, sumo_med, exponents)
     result = {
         "benchmark": "bench_scale", "controller": "nash", "budget_ms": 10000.0,
-        "duration_s": args.duration, "warmup_s": args.warmup, "seed": args.seed,
+        "duration_s": args.duration, "warmup_s": args.warmup, "seed": args.seed, "ssm": not args.no_ssm,
         "exponent_etm": exponents["etm"], "exponent_noetm": exponents["noetm"],
         "bins": bins, "sumo_step_ms_median": sumo_med, "runs": runs,
         "wall_s": round(time.perf_counter() - t_start, 1),

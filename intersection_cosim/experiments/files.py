@@ -179,14 +179,16 @@ def route_files(scn: Scenario) -> list[str]:
     return [ROUTE_FILE, scn.network.routes]
 
 
-def run_output_options(folder: Path) -> list[str]:
-    """SUMO command-line options that write the run's own outputs into ``folder`` (absolute paths).
+def run_output_options(folder: Path, ssm: bool = True) -> list[str]:
+    """SUMO command-line options that write the run's own outputs into ``folder`` (absolute paths);
+    without ``ssm`` (``[scenario] ssm = false``: no SSM device) no SSM file.
 
     Options on the command line override the config's, so the run's outputs land where they always
     did while the exported config keeps pointing at ``replay/``.
     """
     folder = Path(folder).resolve()
-    return [arg for option, name in SUMO_OUTPUT_FILES.items() for arg in (f"--{option}", str(folder / name))]
+    return [arg for option, name in SUMO_OUTPUT_FILES.items() if ssm or option != "device.ssm.file"
+            for arg in (f"--{option}", str(folder / name))]
 
 
 def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
@@ -215,10 +217,13 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
                    "collision-output": _replay("collision-output")},
         "ssm_device": {"device.ssm.probability": "1", "device.ssm.measures": "TTC DRAC PET",
                        "device.ssm.thresholds": SSM_RECORD_THRESHOLDS, "device.ssm.range": f"{SSM_RANGE:g}",
-                       "device.ssm.file": _replay("device.ssm.file"), "device.ssm.trajectories": "false"},
+                       "device.ssm.file": _replay("device.ssm.file"), "device.ssm.trajectories": "false"}
+        if s.ssm else {},
         "report": {"no-warnings": "true", "no-step-log": "true", "duration-log.disable": "true"},
     }
     for section, options in sections.items():
+        if not options:
+            continue
         sec = ET.SubElement(root, section)
         for key, value in options.items():
             ET.SubElement(sec, key, value=value)

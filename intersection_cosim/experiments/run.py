@@ -326,7 +326,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
         # the command line (the config's go to replay/)
-        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder))
+        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder, scn.scenario.ssm))
         if _signals_off(scn, controller):
             sim.switch_signals_off()
         if view is not None:

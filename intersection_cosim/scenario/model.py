@@ -27,6 +27,8 @@ class ScenarioSettings:
     #                              (< 0.1 m/s) this long: a deadlock (experiments/deadlock.py); 0: never
     memory_limit: float = 8.0  # [GB] end the run once its process holds more (SUMO's SSM device grows
     #                            with long queues; experiments/memory_guard.py); 0: never
+    ssm: bool = True  # [-] SUMO's SSM device on every vehicle: ssm.xml and pairs.csv's min_ttc_ssm and
+    #                   pet_ssm; false drops its cost (in a jam most of SUMO's step) and its memory
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "duration", "step_length", "exit_distance")

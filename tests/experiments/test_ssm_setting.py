@@ -1,0 +1,39 @@
+"""[scenario] ssm: SUMO's SSM device on or off, a measurement only (real runs of Case 1 A)."""
+
+import dataclasses
+import json
+from pathlib import Path
+
+import pandas as pd
+
+from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.scenario import load_scenario
+
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+
+
+def _run(tmp_path: Path, ssm: bool) -> Path:
+    scn = load_scenario(SCENARIOS / "case1_A.toml")
+    scn = dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, ssm=ssm))
+    out = tmp_path / f"ssm_{ssm}"
+    run_scenario(scn, out)
+    return out
+
+
+def test_without_the_ssm_device_the_run_drives_the_same_and_records_no_ssm(tmp_path):
+    """Case 1 A under nash with ssm = false: the same trajectories to the bit and the same own
+    margins (pairs.csv min_ttc, pet) as with the device; no ssm.xml, SSM's pair columns empty,
+    no SSM section in the exported config, and the setting in summary.json. With it, SSM
+    recorded V1-V2 (its min TTC a number)."""
+    on, off = _run(tmp_path, True), _run(tmp_path, False)
+    assert (on / "ssm.xml").exists() and not (off / "ssm.xml").exists()
+    pd.testing.assert_frame_equal(pd.read_csv(on / "trajectories.csv"), pd.read_csv(off / "trajectories.csv"))
+    p_on, p_off = pd.read_csv(on / "pairs.csv"), pd.read_csv(off / "pairs.csv")
+    pd.testing.assert_frame_equal(p_on[["vehicle_a", "vehicle_b", "min_ttc", "pet"]],
+                                  p_off[["vehicle_a", "vehicle_b", "min_ttc", "pet"]])
+    assert p_on["min_ttc_ssm"].notna().any() and p_off["min_ttc_ssm"].isna().all() and p_off["pet_ssm"].isna().all()
+    assert "device.ssm" in (on / "scenario.sumocfg").read_text()
+    assert "device.ssm" not in (off / "scenario.sumocfg").read_text()
+    summary = json.loads((off / "summary.json").read_text())
+    assert summary["settings"]["scenario"]["ssm"] is False
+    assert summary["counts"]["collisions"] == 0
