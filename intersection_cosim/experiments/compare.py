@@ -162,7 +162,8 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             late += int((va["depart"].notna() & ~(va["arrival"].notna() & (va["time_loss"] <= LATE_AFTER))).sum())
             veh.append(va)
             steps.append(_step_sums(pd.read_csv(run / STEPS_FILE)))
-            ssm.append(read_ssm(run / SSM_FILE))
+            if (run / SSM_FILE).exists():  # not with [scenario] ssm = false: then not measured
+                ssm.append(read_ssm(run / SSM_FILE))
         v = pd.concat(veh) if veh else pd.DataFrame(columns=["arrival", "travel_time", "time_loss"])
         v = v[v["arrival"].notna()] if len(v) else v
         st = pd.concat(steps) if steps else pd.DataFrame(columns=["compute_ms", "deadline_missed", "junctions"])
@@ -180,7 +181,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "travel_time_mean": _mean(tt), "travel_time_p95": _quantile(tt, 0.95),
             "time_loss_mean": _mean(v["time_loss"].to_numpy(float)),
             "throughput_veh_h": arrived / window * 3600.0 if window > 0 else math.nan,
-            "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss),
+            "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss) if ssm else math.nan,
             "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
             "collisions": collisions if mine else math.nan,
             "late_or_stuck": late if mine else math.nan,

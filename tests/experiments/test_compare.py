@@ -90,3 +90,19 @@ def test_controller_is_accepted_as_the_old_spelling_of_controllers(tmp_path, cap
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "unknown controller 'nope'" in err
     assert not out.exists()
+
+
+def test_runs_without_the_ssm_device_leave_the_ssm_columns_empty_not_zero(tmp_path):
+    """demand_balanced_low with [scenario] ssm = false, 30 s: no ssm.xml in the run, and the
+    comparison's SSM columns are empty (not measured), not 0 encounters."""
+    text = Path(LOW).read_text().replace("[scenario]\n", "[scenario]\nssm = false\n", 1)
+    assert "ssm = false" in text
+    scenario = tmp_path / "demand_balanced_low.toml"
+    scenario.write_text(text)
+    out = tmp_path / "cmp"
+    assert main(["compare", str(scenario), "--duration", "30", "--controllers", "sumo-priority", "--seeds", "1",
+                 "--out", str(out), "--workers", "1", "--no-progress"]) == 0
+    table = pd.read_csv(out / "comparison.csv")
+    assert table["vehicles"].iloc[0] > 0 and table["collisions"].iloc[0] == 0
+    assert table[["ssm_encounters", "ssm_min_ttc", "ssm_min_pet", "ssm_share_under_thresholds"]].isna().all().all()
+    assert not list(out.rglob("ssm.xml"))
