@@ -60,10 +60,9 @@ def comfort_weight(problem, kappa: float) -> float:
 
 
 @functools.lru_cache(maxsize=1024)  # one entry per kappa in play: built once per vehicle, not per solve
-@functools.lru_cache(maxsize=1024)  # one entry per vehicle's kappa: built once per vehicle, not per step
 def quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float) -> np.ndarray:
     """Hessian of the exact quadratic terms: sum w_e (v - v_max)^2 + dt w_accel a^2 + dt jerk_w da^2
-    (read-only, shared between callers)."""
+    (read-only)."""
     hm = horizon_matrices(n, dt)
     Q = (2.0 * w_e * dt * dt) * hm.LtL + (2.0 * dt * w_accel) * hm.eye + (2.0 * dt * jerk_w) * hm.DtD
     Q.setflags(write=False)
