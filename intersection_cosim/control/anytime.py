@@ -6,7 +6,9 @@ before the step's cutoff (the deadline less a reserve for the safety filter); wo
 fit is deferred and its vehicles keep their last plan, shifted. The estimates of games are running
 means of the measured solve times; the solo vehicles are solved in one batch
 (games.solo_batch), whose time is a fixed part (one pass of array work) plus a part per problem,
-estimated by a running least-squares fit of the measured batches.
+estimated by a running least-squares fit of the measured batches. The reserve kept for the safety
+filter is a share of the time left, but never less than the slow case of the filter's own
+running mean time (on a large net the filter alone can take more than the share).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ GAME_COLD_S = 0.004  # [s] first estimate of one exit-lane combination of a game
 GAME_WARM_S = 0.002  # [s] ... with a warm start
 SOLO_S = 0.001  # [s] first estimate of one solo solve in a batch
 SOLO_FIXED_S = 0.0005  # [s] first estimate of a solo batch's fixed part
+FILTER_S = 0.001  # [s] first estimate of the safety filter's time
 
 
 class SolveTimeEstimate:
@@ -83,15 +86,17 @@ class BatchTimeEstimate:
 
 
 class AnytimeSchedule:
-    """The estimates of a controller: games (cold and warm) and the solo batch."""
+    """The estimates of a controller: games (cold and warm), the solo batch and the safety filter."""
 
     def __init__(self):
         self.game = {False: SolveTimeEstimate(GAME_COLD_S), True: SolveTimeEstimate(GAME_WARM_S)}
         self.solo = BatchTimeEstimate(SOLO_FIXED_S, SOLO_S)
+        self.filter = SolveTimeEstimate(FILTER_S)
 
 
-def step_cutoff(deadline: float, reserve: float) -> float:
-    """The ``time.perf_counter`` value after which no new solve starts: ``deadline`` less the
-    share ``reserve`` [-] of the time left, kept for the safety filter."""
+def step_cutoff(deadline: float, reserve: float, filter_seconds: float = 0.0) -> float:
+    """The ``time.perf_counter`` value after which no new solve starts: ``deadline`` less what is
+    kept for the safety filter, the share ``reserve`` [-] of the time left or, if larger,
+    ``SLOW_SOLVE_FACTOR`` times the filter's estimated time ``filter_seconds`` [s]."""
     start = time.perf_counter()
-    return deadline - reserve * max(deadline - start, 0.0)
+    return deadline - max(reserve * max(deadline - start, 0.0), SLOW_SOLVE_FACTOR * filter_seconds)

@@ -24,7 +24,8 @@ Every control period, for the vehicles that are ready to enter or passing the co
    at the next control step, when the pair's game is played again from the measured states.
    The lowest acceleration is one of the games' own plans, bounded by a_min.
 6. **Anytime step** (control/anytime.py): work that would not finish before the budget less
-   ``anytime_reserve`` is deferred and its vehicles keep their last plan, shifted.
+   what the safety filter needs (``anytime_reserve``, or twice its measured time) is deferred
+   and its vehicles keep their last plan, shifted.
 7. **Safety filter** (control/safety.py) checks every acceleration, fresh or kept.
 
 Decisions are written back as accelerations (held over the period; the adapter turns them into
@@ -172,7 +173,7 @@ class GameController:
         lanes = lane_options(world, relations, self.ctx.movements, self.memory.options, self._choice_age,
                              self.settings.policy.lane_choice_period)
         self._choice_age = dict(lanes.choice_age)
-        cutoff = step_cutoff(deadline, self.settings.policy.anytime_reserve)
+        cutoff = step_cutoff(deadline, self.settings.policy.anytime_reserve, self.schedule.filter.seconds)
         in_game = self._play_games(world, relations, lanes.options, cutoff, decisions)
         for k in active:
             if k in in_game:
@@ -187,7 +188,9 @@ class GameController:
             out = outcomes[k]
             decisions.deferred += out.deferred
             self._apply(world, k, out.plan, out.option, decisions)
+        t0 = time.perf_counter()
         self._filter(world, relations, decisions)
+        self.schedule.filter.measured(time.perf_counter() - t0)
         return decisions
 
     def _release(self, world: World, active: list[int]) -> list[str]:

@@ -50,9 +50,12 @@ class PolicySettings:
     # event ends once both are in the junction and one is below SafetySettings.clear_speed
     # (off by default: with it demand_unbalanced_high at 600 s and a 20 ms budget near-locked, docs/design.md)
     filter_event: bool = False
-    anytime_reserve: float = 0.25  # [-] share of the step budget kept for the safety filter: games
-    #                                and solo solves that would not finish before the rest of the
-    #                                budget are deferred (their vehicles keep their last plan, shifted)
+    anytime_reserve: float = 0.1  # [-] share of the step budget kept for the safety filter (at
+    #                               least twice its measured mean time): games and solo solves that
+    #                               would not finish before the rest of the budget are deferred
+    #                               (their vehicles keep their last plan, shifted). 0.1 leaves 2 ms
+    #                               of a 20 ms budget; the filter's 99.9th percentile at 1800 veh/h
+    #                               is 1.5-2.6 ms (docs/design.md, issue 18, sixth part)
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")

@@ -34,6 +34,15 @@ def test_the_cutoff_keeps_the_reserve_of_the_time_left():
     assert step_cutoff(deadline - 2.0, 0.25) == deadline - 2.0  # past it: no time to keep
 
 
+def test_the_cutoff_keeps_at_least_the_slow_case_of_the_filters_time():
+    deadline = time.perf_counter() + 0.020  # [s] a 20 ms budget
+    share = step_cutoff(deadline, 0.1, 0.0005)  # filter 0.5 ms: the share (2 ms) is larger
+    assert deadline - 0.0021 <= share <= deadline - 0.0019
+    slow = step_cutoff(deadline, 0.1, 0.004)  # filter 4 ms: twice that is kept, not 2 ms
+    assert slow == pytest.approx(deadline - SLOW_SOLVE_FACTOR * 0.004, abs=1e-12)
+    assert AnytimeSchedule().filter.seconds > 0.0  # a first guess before any measurement
+
+
 def test_a_batch_estimate_learns_its_fixed_and_per_solve_parts():
     est = BatchTimeEstimate(0.0005, 0.001)
     for k in range(60):  # batches of 1..12 solves costing 0.3 ms + 0.2 ms per solve
