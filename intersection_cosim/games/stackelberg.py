@@ -28,7 +28,9 @@ leader QPs per iteration). Converged when the leader's QP step is below ``stacke
 its model gain below ``stackelberg_gain_rtol`` (relative), or when an accepted step moved less
 than ``stackelberg_tol``, or gained less than ``nash_cost_rtol`` while moving less than
 ``nash_cost_guard`` with the follower settled. The follower is finally polished to a full best
-response (``br_max_sqp`` SQP iterations) unless its last answer had already settled.
+response (``br_max_sqp`` SQP iterations) unless its last answer had already settled or the
+deadline stopped the iteration: past the deadline, as in :func:`nash_equilibrium`, no further QP
+is solved (a warm start is returned as it is, the follower's last answer as it stands).
 
 A cold solve starts at the Nash equilibrium (where the follower is at its best response); the
 leader only ever takes cost-reducing steps, and if the follower's final polish still leaves the
@@ -264,7 +266,7 @@ def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int,
     # the Nash point has the follower at its best response; a warm start (the previous step's
     # plans, shifted) first lets the follower answer the shifted leader plan
     x_last, follower_settled, f_cost = plans[F].accelerations, not warm, f_cost0
-    if warm:
+    if warm and not (deadline is not None and time.perf_counter() >= deadline):
         out, follower_settled = it.follower_answer(plans, sv.sqp_steps_per_iteration, plans[F].duals)
         plans[F] = it.objF.plan(out.a, out.duals)
         x_last = out.x_qp if out.x_qp is not None else out.a
@@ -302,7 +304,7 @@ def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int,
         if res < sv.stackelberg_tol or (res < sv.nash_cost_guard and gain < sv.nash_cost_rtol and follower_settled):
             status = "converged"
             break
-    plans, known = _polish(it, plans, cL, f_cost, follower_settled)
+    plans, known = _polish(it, plans, cL, f_cost, follower_settled or status == "deadline")
     return plans, residuals, status, known
 
 

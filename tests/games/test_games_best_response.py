@@ -268,6 +268,21 @@ def test_deadline_anytime_mode(pair_battery, gs, ms, monkeypatch):
     assert all(np.all(np.isfinite(p.positions)) for p in soon.plans)
 
 
+def test_a_stackelberg_game_past_its_deadline_solves_no_qp(pair_battery, gs, ms):
+    """As Nash's: past the deadline no QP is solved, not the warm follower's answer and not the
+    final polish of the follower (up to br_max_sqp SQP steps: 4-11 QPs here before)."""
+    n = gs.problem.steps
+    for problem in pair_battery[:10]:
+        warm = [np.zeros(n), np.full(n, 1.5)]  # [m/s^2] a follower far from its best response
+        late = stackelberg_equilibrium(problem, gs, ms, warm_start=warm, deadline=time.perf_counter() - 1.0)
+        assert late.status == "deadline" and late.iterations == 0 and late.qp_count == 0
+        assert all(np.all(np.isfinite(p.positions)) for p in late.plans)
+        cold = stackelberg_equilibrium(problem, gs, ms, deadline=time.perf_counter() - 1.0)
+        assert cold.status == "deadline" and cold.qp_count == 0
+        free = stackelberg_equilibrium(problem, gs, ms, warm_start=warm)  # no deadline: it works
+        assert free.status != "deadline" and free.qp_count > 0
+
+
 def test_record_costs_gives_convergence_history(pair_battery, gs, ms):
     result = nash_equilibrium(pair_battery[2], gs, ms, record_costs=True)
     assert result.cost_history.shape == (result.iterations, 2)
