@@ -4,7 +4,8 @@ Games are played most urgent first, then solo vehicles nearest their stop line. 
 solve the controller asks whether its estimated wall time, with room for a slow one, still fits
 before the step's cutoff (the deadline less a reserve for the safety filter); work that does not
 fit is deferred and its vehicles keep their last plan, shifted. The estimates of games are running
-means of the measured solve times; the solo vehicles are solved in one batch
+means of the measured solve times per exit-lane combination, one for combinations with a warm
+start and one for those without; the solo vehicles are solved in one batch
 (games.solo_batch), whose time is a fixed part (one pass of array work) plus a part per problem,
 estimated by a running least-squares fit of the measured batches. The reserve kept for the safety
 filter is a share of the time left, but never less than the slow case of the filter's own
@@ -85,11 +86,45 @@ class BatchTimeEstimate:
             self.fixed, self.per_unit = 0.0, mt / max(mu, 1.0)
 
 
+class GameTimeEstimate:
+    """Wall time of one pair's game [s]: each exit-lane combination solved from a warm start costs
+    the warm estimate, each without one (a cold start from the decoupled plans; for Stackelberg a
+    Nash solve first) the cold estimate. A lane choice often mixes the two (the combination the
+    pair drives is warm, the other cold) and costs 3-4 times a warm game, not twice."""
+
+    def __init__(self, cold: float, warm: float):
+        self.cold, self.warm = SolveTimeEstimate(cold), SolveTimeEstimate(warm)
+
+    def seconds(self, n_warm: int, n_cold: int) -> float:
+        """[s] estimated time of a game with ``n_warm`` warm and ``n_cold`` cold combinations."""
+        return n_warm * self.warm.seconds + n_cold * self.cold.seconds
+
+    def fits(self, n_warm: int, n_cold: int, cutoff: float) -> bool:
+        """Whether the game, at ``SLOW_SOLVE_FACTOR`` times its estimate, ends before ``cutoff``."""
+        return time.perf_counter() + SLOW_SOLVE_FACTOR * self.seconds(n_warm, n_cold) <= cutoff
+
+    def deferred(self, n_warm: int, n_cold: int) -> None:
+        for n, est in ((n_warm, self.warm), (n_cold, self.cold)):
+            if n:
+                est.deferred()
+
+    def measured(self, n_warm: int, n_cold: int, seconds: float) -> None:
+        """Fold in a game of ``seconds`` [s]: a game of one kind updates that kind's mean per
+        combination; a mixed one updates the cold mean with what is left after the warm
+        combinations' estimate (at least the warm estimate: a cold start is never cheaper)."""
+        if not n_cold:
+            self.warm.measured(seconds / n_warm)
+        elif not n_warm:
+            self.cold.measured(seconds / n_cold)
+        else:
+            self.cold.measured(max((seconds - n_warm * self.warm.seconds) / n_cold, self.warm.seconds))
+
+
 class AnytimeSchedule:
     """The estimates of a controller: games (cold and warm), the solo batch and the safety filter."""
 
     def __init__(self):
-        self.game = {False: SolveTimeEstimate(GAME_COLD_S), True: SolveTimeEstimate(GAME_WARM_S)}
+        self.game = GameTimeEstimate(GAME_COLD_S, GAME_WARM_S)
         self.solo = BatchTimeEstimate(SOLO_FIXED_S, SOLO_S)
         self.filter = SolveTimeEstimate(FILTER_S)
 

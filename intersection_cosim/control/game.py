@@ -225,17 +225,17 @@ class GameController:
             if (kept := self.reuse.kept(world, ka, kb, problems, self._held_before)) is not None:
                 self._keep_game(world, game, *kept, in_game, decisions)
                 continue
-            estimate = self.schedule.game[self.memory.has_game(world.ids[ka], world.ids[kb])]
-            combos = len(options[ka]) * len(options[kb])
-            if not estimate.fits(combos, cutoff):
+            estimate, n_warm = self.schedule.game, sum(combo in warm for combo in problems)
+            n_cold = len(problems) - n_warm
+            if not estimate.fits(n_warm, n_cold, cutoff):
                 decisions.deferred += 1
-                estimate.deferred()
+                estimate.deferred(n_warm, n_cold)
                 for k in (ka, kb):
                     in_game.setdefault(k, []).append(self._kept_choice(world, k))
                 continue
             t0 = time.perf_counter()
             result, choice = play(world, game, problems, warm, options, self.memory, self.solver, cutoff)
-            estimate.measured((time.perf_counter() - t0) / combos)
+            estimate.measured(n_warm, n_cold, time.perf_counter() - t0)
             self.reuse.solved(world, ka, kb, problems, result, choice)
             self._record_game(world, game, result, decisions)
             for k, plan, option in ((ka, result.plans[0], choice[0]), (kb, result.plans[1], choice[1])):

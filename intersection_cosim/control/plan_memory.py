@@ -181,9 +181,5 @@ class PlanMemory:
             return None
         return tuple(self.shifted(p, periods) for p in plans)
 
-    def has_game(self, a: str, b: str) -> bool:
-        """Whether any exit-lane combination of the pair (a, b) has a stored warm start."""
-        return any(isinstance(key, GameKey) and key.a == a and key.b == b for key in self._warm)
-
     def keys(self) -> Iterable[WarmKey]:
         return tuple(self._warm)

@@ -5,7 +5,8 @@ import time
 import pytest
 
 from intersection_cosim.control.anytime import (DEFER_DECAY, SLOW_SOLVE_FACTOR, SMOOTHING, AnytimeSchedule,
-                                                BatchTimeEstimate, SolveTimeEstimate, step_cutoff)
+                                                BatchTimeEstimate, GameTimeEstimate, SolveTimeEstimate,
+                                                step_cutoff)
 
 
 def test_a_solve_fits_only_if_its_slow_case_ends_before_the_cutoff():
@@ -24,7 +25,7 @@ def test_the_estimate_is_a_running_mean_and_shrinks_on_deferral():
     est.deferred()
     assert est.seconds == pytest.approx(DEFER_DECAY * 0.006)
     sched = AnytimeSchedule()
-    assert sched.game[False].seconds > sched.game[True].seconds > sched.solo.seconds(1)  # cold > warm > solo
+    assert sched.game.cold.seconds > sched.game.warm.seconds > sched.solo.seconds(1)  # cold > warm > solo
 
 
 def test_the_cutoff_keeps_the_reserve_of_the_time_left():
@@ -69,3 +70,23 @@ def test_a_batch_estimate_of_one_size_and_after_a_deferral():
     assert est.seconds(4) == pytest.approx(DEFER_DECAY * before)
     est.measured(4, 0.0025 * DEFER_DECAY)  # the shrunk estimate is not undone by the fit
     assert est.seconds(4) == pytest.approx(DEFER_DECAY * before, rel=1e-3)
+
+
+def test_a_game_is_estimated_by_its_warm_and_cold_combinations():
+    est = GameTimeEstimate(0.004, 0.001)  # [s] cold, warm per combination
+    assert est.seconds(1, 1) == pytest.approx(0.005) and est.seconds(2, 0) == pytest.approx(0.002)
+    now = time.perf_counter()
+    assert est.fits(2, 0, now + SLOW_SOLVE_FACTOR * 0.002 + 0.001)  # two warm combinations fit
+    assert not est.fits(1, 1, now + SLOW_SOLVE_FACTOR * 0.002 + 0.001)  # one of them cold: not
+    est.measured(2, 0, 0.003)  # warm games update the warm mean per combination
+    assert est.warm.seconds == pytest.approx((1 - SMOOTHING) * 0.001 + SMOOTHING * 0.0015)
+    assert est.cold.seconds == 0.004
+    warm = est.warm.seconds
+    est.measured(1, 1, 0.010)  # a mixed game: the cold mean gets what the warm one does not explain
+    assert est.cold.seconds == pytest.approx((1 - SMOOTHING) * 0.004 + SMOOTHING * (0.010 - warm))
+    prior = est.cold.seconds
+    est.measured(1, 1, 0.0)  # a mixed game faster than its warm part: counted as the warm estimate
+    assert est.cold.seconds == pytest.approx((1 - SMOOTHING) * prior + SMOOTHING * warm)
+    before = (est.cold.seconds, est.warm.seconds)
+    est.deferred(0, 2)  # only the kind that was deferred shrinks
+    assert est.cold.seconds == pytest.approx(DEFER_DECAY * before[0]) and est.warm.seconds == before[1]
