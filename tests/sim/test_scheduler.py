@@ -1,5 +1,6 @@
 """The step scheduler alone, with stand-in controllers (no SUMO needed)."""
 
+import gc
 import time
 
 import numpy as np
@@ -69,3 +70,41 @@ def test_an_overrun_step_still_releases_the_vehicles_decide_let_go():
     collision on the grid under load, between two junctions)."""
     d, rec = StepScheduler(_Controller(sleep_s=0.01), budget_ms=1.0).step(_world())
     assert rec.fallback and d.release == ["V0"] and d.accel == {"V1": -2.0}
+
+
+class _Cycles(_Controller):
+    """Makes enough cyclic garbage to start several collections, and records when it started and
+    whether the collector was on while it decided."""
+
+    def decide(self, world, deadline):
+        self.started, self.enabled = time.perf_counter(), gc.isenabled()
+        for _ in range(5000):
+            a, b = [], []
+            a.append(b)
+            b.append(a)
+        return super().decide(world, deadline)
+
+
+def test_the_garbage_collector_waits_until_the_step_is_timed():
+    starts = []  # [s] perf_counter at the start of each collection
+    def callback(phase, info):
+        if phase == "start":
+            starts.append(time.perf_counter())
+    ctrl = _Cycles()
+    sched = StepScheduler(ctrl, budget_ms=500.0)
+    gc.callbacks.append(callback)
+    try:
+        _, rec = sched.step(_world())
+        garbage = [[] for _ in range(3000)]  # allocations after the step: the collector runs again
+        del garbage
+    finally:
+        gc.callbacks.remove(callback)
+    timed = (ctrl.started, ctrl.started + rec.compute_ms / 1e3)  # [s] the timed window, about
+    assert not ctrl.enabled and gc.isenabled()
+    assert starts and not any(timed[0] <= t <= timed[1] for t in starts)  # 5000 cycles, collected after
+    gc.disable()
+    try:  # a collector the caller had switched off stays off
+        sched.step(_world())
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
