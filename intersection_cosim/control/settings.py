@@ -55,7 +55,7 @@ class PolicySettings:
     #                               would not finish before the rest of the budget are deferred
     #                               (their vehicles keep their last plan, shifted). 0.1 leaves 2 ms
     #                               of a 20 ms budget; the filter's 99.9th percentile at 1800 veh/h
-    #                               is 1.5-2.6 ms (docs/design.md, issue 18, sixth part)
+    #                               is 1.2-2.6 ms (docs/design.md, issue 18, sixth part)
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
