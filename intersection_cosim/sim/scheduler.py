@@ -6,9 +6,9 @@ controller's safe fallback instead and records that it did. ``realtime`` paces t
 the wall clock, as the HIL box runs.
 
 Python's cyclic garbage collector is paused while the controller decides: a full collection
-scans every tracked object of the process (at 1800 veh/h 45 000 at the first one of a run, 100 000 at
-the third, 300 s in) and took 45-75 ms, three times in such a run, each time a missed 20 ms budget.
-The collections happen between the steps instead, outside the timed window.
+scans every tracked object of the process (in a 300 s run at 1800 veh/h, 45 000 at the first of
+its three full collections, 100 000 at the last) and took 45-75 ms, each time a missed 20 ms
+budget. The collections happen between the steps instead, outside the timed window.
 """
 
 from __future__ import annotations
