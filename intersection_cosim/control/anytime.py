@@ -32,11 +32,6 @@ class SolveTimeEstimate:
     def __init__(self, initial: float):
         self.seconds = initial
 
-    def fits(self, units: int, cutoff: float) -> bool:
-        """Whether ``units`` solves of this kind, at ``SLOW_SOLVE_FACTOR`` times the estimate,
-        end before ``cutoff`` (a ``time.perf_counter`` value)."""
-        return time.perf_counter() + SLOW_SOLVE_FACTOR * units * self.seconds <= cutoff
-
     def deferred(self) -> None:
         self.seconds *= DEFER_DECAY
 

@@ -10,12 +10,12 @@ from intersection_cosim.control.anytime import (DEFER_DECAY, SLOW_SOLVE_FACTOR, 
 
 
 def test_a_solve_fits_only_if_its_slow_case_ends_before_the_cutoff():
-    est = SolveTimeEstimate(0.010)  # [s]
+    est = GameTimeEstimate(0.020, 0.010)  # [s] cold, warm per combination
     now = time.perf_counter()
-    assert est.fits(1, now + 1.0)
-    assert not est.fits(1, now + 0.5 * SLOW_SOLVE_FACTOR * 0.010)  # half the slow case: no
-    assert not est.fits(4, now + 3 * SLOW_SOLVE_FACTOR * 0.010)  # four combinations need 4x
-    assert not est.fits(1, now - 1.0)
+    assert est.fits(1, 0, now + 1.0)
+    assert not est.fits(1, 0, now + 0.5 * SLOW_SOLVE_FACTOR * 0.010)  # half the slow case: no
+    assert not est.fits(4, 0, now + 3 * SLOW_SOLVE_FACTOR * 0.010)  # four combinations need 4x
+    assert not est.fits(1, 0, now - 1.0)
 
 
 def test_the_estimate_is_a_running_mean_and_shrinks_on_deferral():
