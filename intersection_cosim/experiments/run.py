@@ -39,6 +39,7 @@ from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.movements import Movements, paper_movements
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import IntersectionSpec
+from intersection_cosim.network.xml_files import copy_plain
 from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE,
                                                RUN_MARKER, SSM_FILE, STEP_COLUMNS, STEPS_FILE, TRAJECTORIES_FILE,
@@ -207,7 +208,7 @@ def _write_inputs(scn: Scenario, folder: Path) -> _Inputs:
     s = scn.scenario
     controller = registry.create_per_junction(scn.controller.kind, scn.controller_settings, s.junction_type)
     net, movements = _movements(scn, controller)
-    shutil.copyfile(net, folder / NET_FILE)
+    copy_plain(net, folder / NET_FILE)  # a gzipped net is written out plain
     rng = np.random.default_rng(s.seed)
     flow_vehicles = draw_drivers(scn, generate_flow_vehicles(scn, rng))
     _check_attacked(scn, flow_vehicles)

@@ -8,23 +8,23 @@ and ``intLanes`` (foe internal lanes). A vehicle standing there is released by S
 vehicle approaches on those approach lanes and none is on those internal lanes; a vehicle
 approaching on any other lane is not looked at, and must keep able to yield to it.
 
-Pure: reads the net file.
+Pure: reads the net file (plain or gzipped).
 """
 
 from __future__ import annotations
 
 import functools
-import xml.etree.ElementTree as ET
 from typing import Mapping
 
 from intersection_cosim.network.movements import Movements
+from intersection_cosim.network.xml_files import xml_root
 
 
 @functools.lru_cache(maxsize=16)
 def _internal_junctions(net_file: str) -> dict[str, tuple[str, ...]]:
     """Internal junction id -> its ``incLanes`` that are approach lanes (not internal ones)."""
     out = {}
-    for el in ET.parse(net_file).getroot().iter("junction"):
+    for el in xml_root(net_file).iter("junction"):
         if el.get("type") == "internal":
             out[el.get("id")] = tuple(ln for ln in el.get("incLanes", "").split() if not ln.startswith(":"))
     return out

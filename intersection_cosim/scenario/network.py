@@ -22,6 +22,7 @@ import sumolib
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.network.junction_net import junction_table, load_movements
+from intersection_cosim.network.xml_files import xml_root
 from intersection_cosim.scenario.model import PAPER_JUNCTION, SIGNALS, NetworkSettings
 
 NETWORK_KEYS = ("file", "junctions", "signals", "control_range", "routes")
@@ -137,7 +138,7 @@ def _control_range(src: str, value: Any) -> float:
 
 def route_file_ids(path: str) -> tuple[set[str], set[str]]:
     """The vType ids and the vehicle / trip / flow ids a route file defines (top level)."""
-    root = ET.parse(path).getroot()
+    root = xml_root(path)
     types = {el.get("id") for el in root if el.tag == "vType"}
     demand = {el.get("id") for el in root if el.tag in ("vehicle", "trip", "flow", "person", "personFlow")}
     return types, demand
@@ -148,7 +149,7 @@ def _routes(src: str, value: Any, path: str, net_file: str) -> str:
     if not os.path.isfile(path):
         raise InputError(src, field, value, f"no such file ({path})")
     try:
-        root = ET.parse(path).getroot()
+        root = xml_root(path)
     except (ET.ParseError, OSError) as exc:
         raise InputError(src, field, value, f"is not SUMO routes XML ({exc})") from None
     if root.tag != "routes":

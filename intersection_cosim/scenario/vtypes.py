@@ -15,10 +15,10 @@ Nothing is written anywhere.
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
 from typing import Any
 
 from intersection_cosim.errors import InputError
+from intersection_cosim.network.xml_files import xml_root
 from intersection_cosim.scenario.model import VehicleType
 from intersection_cosim.settings import from_table
 
@@ -57,7 +57,7 @@ def route_file_vtypes(path: str) -> tuple[VehicleType, ...]:
     """The top-level vTypes of a SUMO route file as :class:`VehicleType` (length, width, accel,
     decel, maxSpeed; SUMO's passenger defaults where it gives none), drivers "av"."""
     out = []
-    for el in ET.parse(path).getroot():
+    for el in xml_root(path):
         if el.tag != "vType" or el.get("id") in RESERVED:
             continue
         nums = {k: float(el.get(k, v)) for k, v in SUMO_DEFAULTS.items()}

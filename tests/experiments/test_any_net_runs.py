@@ -77,3 +77,23 @@ def test_vehicles_of_the_users_own_route_file_are_controlled_with_their_kappa(tm
     assert set(vehicles.index) == {"bold", "plain", "third"} and (vehicles["approach"] != "").all()
     commanded = traj[traj["role"] != "outside"]
     assert set(commanded["vehicle"]) == {"bold", "plain", "third"} and commanded["accel_cmd"].notna().all()
+
+
+def test_a_gzipped_net_runs_as_the_plain_one(tmp_path):
+    """SUMO reads ``.net.xml.gz``; so does every reader of ours (the waiting positions, the run
+    folder's copy, which is written out plain): the same demand gives the same trajectories."""
+    import gzip
+    import shutil
+
+    scn = with_overrides(load_scenario(SCENARIOS / "cross_medium.toml"), budget_ms=2000.0)
+    scn = dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, duration=40.0))
+    gz = tmp_path / "cross.net.xml.gz"
+    with open(scn.network.file, "rb") as fin, gzip.open(gz, "wb") as fout:
+        shutil.copyfileobj(fin, fout)
+    packed = dataclasses.replace(scn, network=dataclasses.replace(scn.network, file=str(gz)))
+    summaries = {name: run_scenario(s, tmp_path / name) for name, s in (("plain", scn), ("gz", packed))}
+    counts = summaries["gz"]["counts"]
+    assert counts["departed"] >= 5 and counts["arrived"] == counts["departed"] and counts["collisions"] == 0
+    assert (tmp_path / "gz" / "intersection.net.xml").read_bytes() == Path(scn.network.file).read_bytes()
+    trajs = [pd.read_csv(tmp_path / name / "trajectories.csv") for name in ("plain", "gz")]
+    pd.testing.assert_frame_equal(trajs[0], trajs[1])
