@@ -1,7 +1,7 @@
 """The net's drawable geometry, read with sumolib: lane and junction outlines, internal lane centre lines.
 
-Everything is in the net's frame, which is the paper frame (the junction centre at the origin, x
-east, y north, metres): the frame of a run's trajectories.
+Everything is in the net's frame, the frame of a run's trajectories (x east, y north, metres;
+for the generated paper net the paper frame, its junction centre at the origin).
 """
 
 from __future__ import annotations
@@ -32,6 +32,20 @@ def junction_centre(net_file: str | Path, junction: str) -> tuple[float, float]:
     """[m] the position of ``junction`` in the net's frame."""
     x, y = sumolib.net.readNet(str(net_file)).getNode(junction).getCoord()[:2]
     return float(x), float(y)
+
+
+def junction_outlines(net_file: str | Path, junctions) -> dict[str, tuple[tuple[float, float], np.ndarray]]:
+    """[m] per junction id: its position and its outline polygon (n x 2; (0, 2) if it has no
+    area) in the net's frame, from one read of the net."""
+    net = sumolib.net.readNet(str(net_file))
+    out = {}
+    for j in junctions:
+        node = net.getNode(j)
+        shape = node.getShape()
+        polygon = np.asarray([p[:2] for p in shape], float).reshape(-1, 2) if len(shape) >= 3 else np.zeros((0, 2))
+        x, y = node.getCoord()[:2]
+        out[j] = ((float(x), float(y)), polygon)
+    return out
 
 
 def read_outline(net_file: str | Path) -> NetOutline:

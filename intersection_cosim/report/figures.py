@@ -14,6 +14,7 @@ TTC and PET, one point per kappa value), :func:`kappa_heatmap` (a metric over tw
 from __future__ import annotations
 
 import itertools
+import json
 from pathlib import Path
 from typing import Mapping
 
@@ -29,6 +30,10 @@ import matplotlib.ticker  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Polygon, Rectangle  # noqa: E402
 
+from intersection_cosim.network.build import NET_FILE  # noqa: E402
+from intersection_cosim.network.outline import junction_outlines, read_outline  # noqa: E402
+from intersection_cosim.results.layout import RUN_MARKER  # noqa: E402
+
 DPI = 120
 POINT_INTERVAL = 0.5  # [s] between the trajectory figure's points
 LANE_WIDTH = 4.0  # [m] of the generated net (network/spec.py); used when a run has no net file
@@ -40,6 +45,8 @@ TIME_CMAP = "viridis"  # trajectory points coloured by time
 TRAJECTORY_MARKERS = ("o", "^", "D", "v", "P", "X", "<", ">", "h", "*")  # one per vehicle
 LINE_STYLES = ("-", "--", "-.", ":")  # velocity lines, one per vehicle (besides its colour)
 SHARED_LANE_OFFSET = 1.4  # [m] sideways between vehicles drawn on a common lane
+SHARED_LANE_MAX = 4  # [-] a larger group of vehicles on common lanes (a demand run) is not spread:
+#                      it would be drawn off its road
 
 METRIC_LABELS = {
     "mean_travel_time": "mean travel time [s]",
@@ -149,6 +156,33 @@ def draw_intersection(ax, net_file: Path | None = None, extent: float = 50.0) ->
                            edgecolor="#c0392b", lw=1.2, ls="--", zorder=2, label="conflict zone"))
 
 
+def draw_net_view(ax, net_file: Path, zones, centre: tuple[float, float], half: float) -> None:
+    """A net file's lanes and junctions (network.outline) in the square of half side ``half`` [m]
+    around ``centre`` [m] (the net's frame), the polygons ``zones`` (the managed junctions, n x 2
+    each) outlined as conflict zones."""
+    outline = read_outline(net_file)
+    for poly in outline.junctions:
+        ax.add_patch(Polygon(poly, closed=True, facecolor=ROAD_COLOUR, edgecolor="none", zorder=0))
+    for poly in outline.lanes:
+        ax.add_patch(Polygon(poly, closed=True, facecolor=ROAD_COLOUR, edgecolor=MARKING_COLOUR, lw=0.6, zorder=0))
+    for line in outline.internal:
+        ax.plot(line[:, 0], line[:, 1], color="white", lw=0.6, ls=":", zorder=1)
+    for shape in zones:
+        if len(shape):
+            ax.add_patch(Polygon(shape, closed=True, fill=False, edgecolor="#c0392b", lw=1.2, ls="--", zorder=2))
+    cx, cy = centre
+    ax.set_xlim(cx - half, cx + half)
+    ax.set_ylim(cy - half, cy + half)
+
+
+def _run_network(run_dir: Path) -> dict:
+    """The ``[network]`` settings a run recorded in its summary.json ({} if none)."""
+    summary = Path(run_dir) / RUN_MARKER
+    if not summary.is_file():
+        return {}
+    return (json.loads(summary.read_text()).get("settings") or {}).get("network") or {}
+
+
 def _every(times: np.ndarray, interval: float) -> np.ndarray:
     """Indices of the first sample in each ``interval`` [s] bin of sorted ``times``."""
     if len(times) == 0:
@@ -160,7 +194,8 @@ def _every(times: np.ndarray, interval: float) -> np.ndarray:
 def shared_lane_offsets(traj: pd.DataFrame, ids: list[str] | None = None) -> dict[str, float]:
     """[m] sideways drawing offset of each vehicle: vehicles that drive on a common lane (the
     ``lane`` column) are spread SHARED_LANE_OFFSET apart around their path, in ``ids`` order, so
-    their points do not hide each other; 0 for a vehicle that shares no lane."""
+    their points do not hide each other; 0 for a vehicle that shares no lane or whose group has
+    more than SHARED_LANE_MAX vehicles."""
     ids = ids or list(dict.fromkeys(traj["vehicle"]))
     lanes = {vid: set(traj.loc[traj["vehicle"] == vid, "lane"].dropna()) for vid in ids}
     group = {vid: {vid} for vid in ids}
@@ -172,7 +207,8 @@ def shared_lane_offsets(traj: pd.DataFrame, ids: list[str] | None = None) -> dic
     offsets = {}
     for vid in ids:
         members = [v for v in ids if v in group[vid]]
-        offsets[vid] = (members.index(vid) - (len(members) - 1) / 2) * SHARED_LANE_OFFSET
+        spread = len(members) <= SHARED_LANE_MAX
+        offsets[vid] = (members.index(vid) - (len(members) - 1) / 2) * SHARED_LANE_OFFSET if spread else 0.0
     return offsets
 
 
@@ -238,15 +274,29 @@ def trajectory_figure(run_dir: Path, out_png: Path, title: str | None = None) ->
     """
     run_dir = Path(run_dir)
     traj, vehicles = _read_run(run_dir)
-    reach = float(np.nanmax(np.abs(traj[["x", "y"]].to_numpy()))) if len(traj) else 30.0
+    network = _run_network(run_dir)
+    net_file = run_dir / NET_FILE
+    on_file = bool(network.get("file")) and bool(network.get("junctions")) and net_file.is_file()
+    zones = junction_outlines(net_file, network["junctions"]) if on_file else {}
+    sites = np.asarray([c for c, _ in zones.values()]) if zones else np.zeros((1, 2))  # [m] managed junctions
+    centre = tuple((sites.min(axis=0) + sites.max(axis=0)) / 2)  # [m] the middle of the managed junctions
+    span = float((sites.max(axis=0) - sites.min(axis=0)).max()) / 2  # [m] 0 for one junction
+    xy = traj[["x", "y"]].to_numpy(float) - np.asarray(centre)
+    reach = float(np.nanmax(np.abs(xy))) - span if len(traj) else 30.0  # [m] beyond the junctions
+    if on_file:  # the vehicles' whole routes are recorded: show the junctions' control range
+        reach = min(reach, float(network.get("control_range", 80.0)))
     extent = float(np.clip(reach + 5.0, 30.0, 80.0))
     fig, ax = plt.subplots(figsize=(7.4, 6.4), layout="constrained")
-    draw_intersection(ax, run_dir / "intersection.net.xml", extent)
+    if on_file:
+        draw_net_view(ax, net_file, [shape for _, shape in zones.values()], centre, span + extent)
+    else:
+        draw_intersection(ax, net_file, extent)
+        ax.set_xlim(-extent, extent)
+        ax.set_ylim(-extent, extent)
     draw_trajectories(ax, traj, vehicles)
-    ax.set_xlim(-extent, extent)
-    ax.set_ylim(-extent, extent)
     ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
+    frame = "the net's frame" if on_file else "paper frame"
+    ax.set_xlabel(f"x [m] ({frame})")
     ax.set_ylabel("y [m]")
     shared = " (vehicles sharing a lane drawn side by side)" if len(set(shared_lane_offsets(traj).values())) > 1 \
         else ""

@@ -33,7 +33,8 @@ def junction_delay_figure(net_file: Path, table: pd.DataFrame, out_png: Path, ti
     dots = ax.scatter(xy[:, 0], xy[:, 1], c=delay, cmap="YlOrRd", vmin=0.0, vmax=top, s=900,
                       edgecolors="black", linewidths=0.8, zorder=2)
     for (x, y), j, d, n in zip(xy, table["junction"], delay, table["vehicles"]):
-        ax.annotate(f"{j}\n{d:.1f} s", (x, y), ha="center", va="center", fontsize=8, zorder=3,
+        label = f"{j}\n{d:.1f} s" if np.isfinite(d) else f"{j}\nno traffic"  # no vehicle passed it
+        ax.annotate(label, (x, y), ha="center", va="center", fontsize=8, zorder=3,
                     color="white" if np.isfinite(d) and d > 0.6 * top else "black")
     fig.colorbar(dots, ax=ax, shrink=0.8, label="mean delay per vehicle passing the junction [s]")
     ax.set_aspect("equal")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -9,6 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import pytest  # noqa: E402
+from matplotlib.patches import Polygon  # noqa: E402
 
 from intersection_cosim.games.settings import SolverSettings  # noqa: E402
 from intersection_cosim.report import figures  # noqa: E402
@@ -145,3 +148,43 @@ def test_a_constant_zero_metric_gets_an_axis_from_zero_with_the_count_shown():
     assert "0 in every run (4 runs)" in [t.get_text() for t in ax.texts]
     assert list(ax.get_xticks()) == [0.1, 0.9]
     assert ax.lines[0].get_markersize() == 8  # two points: large markers
+
+
+def test_a_run_on_a_net_file_is_drawn_around_its_junction_in_the_nets_frame(tmp_path, monkeypatch):
+    """SUMO's cross has its junction at (500, 500) m: the trajectory figure centres there, draws
+    the net's own lanes and outlines the managed junction, not the paper's schematic at (0, 0)."""
+    import json
+    import shutil
+
+    import sumo
+    import sumolib
+
+    net = Path(sumo.SUMO_HOME) / "tools" / "game" / "cross" / "cross.net.xml"
+    shutil.copyfile(net, tmp_path / "intersection.net.xml")
+    network = {"file": str(net), "junctions": ["0"], "control_range": 50.0}
+    (tmp_path / "summary.json").write_text(json.dumps({"settings": {"network": network}}))
+    node = sumolib.net.readNet(str(net)).getNode("0")
+    cx, cy = node.getCoord()[:2]
+    traj = _traj()
+    traj["x"], traj["y"] = traj["x"] + cx, traj["y"] + cy
+    traj.to_csv(tmp_path / "trajectories.csv", index=False)
+    VEHICLES.to_csv(tmp_path / "vehicles.csv", index=False)
+    monkeypatch.setattr(plt, "close", lambda *a, **k: None)  # keep the figure to look at it
+    figures.trajectory_figure(tmp_path, tmp_path / "trajectory.png")
+    ax = plt.gcf().axes[0]
+    assert ax.get_xlim() == pytest.approx((cx - 35.0, cx + 35.0))  # the farthest point 30 m out, + 5 m
+    assert ax.get_ylim() == pytest.approx((cy - 35.0, cy + 35.0))
+    assert "net's frame" in ax.get_xlabel()
+    shape = np.asarray([p[:2] for p in node.getShape()])
+    zones = [p for p in ax.patches if isinstance(p, Polygon) and not p.get_fill()]
+    assert len(zones) == 1 and np.allclose(zones[0].get_xy()[:len(shape)], shape)
+    lanes = [p for p in ax.patches if isinstance(p, Polygon) and p.get_fill()]
+    assert len(lanes) >= 8  # [-] the net's lanes (2 in, 2 out on each of 4 arms at least)
+
+
+def test_a_large_group_on_common_lanes_is_not_spread_off_its_road():
+    rows = [(0.1 * k, f"V{i}", 0.0, 0.0, "west_in_1") for i in range(5) for k in range(3)]
+    traj = pd.DataFrame(rows, columns=["time", "vehicle", "x", "y", "lane"])
+    assert set(figures.shared_lane_offsets(traj).values()) == {0.0}  # five: drawn on their path
+    four = figures.shared_lane_offsets(traj[traj["vehicle"] != "V4"])
+    assert sorted(four.values()) == pytest.approx([-2.1, -0.7, 0.7, 2.1])  # four: side by side
