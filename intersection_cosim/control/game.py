@@ -42,6 +42,7 @@ the AV claim it against the human (control/safety.py).
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -56,6 +57,7 @@ from intersection_cosim.control.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.relations import Relations, step_relations
 from intersection_cosim.control.safety import SafetyFilter
 from intersection_cosim.control.solo import SoloPlanner
+from intersection_cosim.control.speed_limits import lane_speed_holds
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
 from intersection_cosim.games.qp import reset_workspaces, solve_count
@@ -281,7 +283,7 @@ class GameController:
             games = frozenset() if decisions.fallback else frozenset(
                 (min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())
             held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
-                                     self._exit_holds(world), games)
+                                     self._holds(world), games)
             self._held = self._held | held
             if self.settings.policy.filter_event:
                 self._events |= self.safety.events
@@ -303,6 +305,16 @@ class GameController:
                 return True
             return all(v in index and float(world.v[index[v]]) >= slow for v in e)
         return {e for e in self._events if holds(e)}
+
+    def _holds(self, world: World) -> dict[str, float]:
+        """[m/s^2] the caps of the exit-room rule and, with ModelSettings.lane_speed_limits, of
+        the lane speed limits (control/speed_limits.py), the lower of the two per vehicle."""
+        holds = self._exit_holds(world)
+        if self.model.lane_speed_limits:
+            for vid, cap in lane_speed_holds(world, self.ctx.movements, self.memory.options, self.model.lane_speed_decel,
+                                             self.ctx.control_period).items():
+                holds[vid] = min(cap, holds.get(vid, math.inf))
+        return holds
 
     def _exit_holds(self, world: World) -> dict[str, float]:
         """[m/s^2] caps that keep vehicles whose exit lane is full at their stop lines."""

@@ -67,8 +67,12 @@ def player(world: World, k: int, option: str, relations: Relations, memory: Plan
         s_l, v_l = leader_trajectory(world, leader, memory)
         exo = (s_l + leader.offset, v_l)
         exo_length = None if world.length is None else float(world.length[leader.vehicle])
+    v_max = desired_speed(world, k)  # [m/s]
+    caps = relations.rows.speed_cap
+    if caps is not None and math.isfinite(cap := float(caps[relations.row_of[(k, option)]])):
+        v_max = cap  # a lane limit below the desired speed (relations.lane_speed_caps)
     return Player(s0=float(world.s[k]), v0=float(world.v[k]), kappa=float(world.kappa[k]),
-                  v_max=desired_speed(world, k), name=world.ids[k], leader=exo,
+                  v_max=v_max, name=world.ids[k], leader=exo,
                   length=None if world.length is None else float(world.length[k]), leader_length=exo_length,
                   a_max=None if world.accel is None else float(world.accel[k]),
                   a_min=None if world.decel is None else -float(world.decel[k]),

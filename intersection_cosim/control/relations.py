@@ -8,6 +8,7 @@ the safety filter) reads and never changes.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -32,6 +33,8 @@ class Rows:
     option: tuple[str, ...]  # exit lane of the row
     path: tuple[str, ...]  # path id of the row
     pidx: np.ndarray  # (R,) index of the row's path in the conflict table
+    speed_cap: np.ndarray | None = None  # (R,) [m/s] the lane speed limit in force (inf: none;
+    #                                      None: ModelSettings.lane_speed_limits off)
 
     def __len__(self) -> int:
         return len(self.option)
@@ -165,6 +168,20 @@ def build_rows(world: World, active: set[int], movements: Movements, table: Conf
     return Rows(np.asarray(vehicle, dtype=np.intp), tuple(option), tuple(path), table.indices(path))
 
 
+def lane_speed_caps(world: World, rows: Rows, movements: Movements, model: ModelSettings) -> np.ndarray:
+    """(R,) [m/s] per row the lane speed limit in force on its path where its vehicle is
+    (MovementPath.speed_limit_ahead), inf where none is below the vehicle's desired speed."""
+    caps = np.full(len(rows), np.inf)
+    for r, (k, pid) in enumerate(zip(rows.vehicle.tolist(), rows.path)):
+        want = model.v_max  # [m/s]
+        if world.desired_speed is not None and math.isfinite(float(world.desired_speed[k])):
+            want = float(world.desired_speed[k])
+        cap = movements.paths[pid].speed_limit_ahead(float(world.s[k]), want, model.lane_speed_decel)
+        if cap < want:
+            caps[r] = cap
+    return caps
+
+
 def step_relations(world: World, active: set[int], movements: Movements, table: ConflictTable,
                    model: ModelSettings, etm: bool, held: Mapping[str, str],
                    lane_choice_range: float, events: frozenset[tuple[str, str]] = frozenset()) -> Relations:
@@ -172,6 +189,8 @@ def step_relations(world: World, active: set[int], movements: Movements, table: 
     (sorted) that play their game whatever Gamma_cp says (the safety filter had to hold one of
     them back for the other: control/game.py)."""
     rows = build_rows(world, active, movements, table, held, lane_choice_range)
+    if model.lane_speed_limits:
+        rows = dataclasses.replace(rows, speed_cap=lane_speed_caps(world, rows, movements, model))
     leaders, lateral = _pair_relations(world, rows, active, table, model, etm, events)
     row_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
     return Relations(rows, leaders, lateral, row_of)

@@ -165,7 +165,7 @@ def _path(conn, upstream: list, internal: list, jid: str) -> MovementPath:
         exit_lane=str(to_lane.getIndex()), lanes=tuple(ln.getID() for ln in lanes),
         lane_starts=line.lane_starts, s_stop=line.lane_starts[stop_index], s_exit=line.lane_starts[-1],
         length=line.length, s=line.s, xy=line.xy, heading=line.heading, curvature=line.curvature,
-        stop_index=stop_index, junction=jid)
+        stop_index=stop_index, junction=jid, speed_limits=tuple(float(ln.getSpeed()) for ln in lanes))
 
 
 def _preference(movement: str, from_index: int, exit_index: int) -> tuple:

@@ -48,6 +48,7 @@ class MovementPath:
     curvature: np.ndarray = field(repr=False)  # [1/m] signed curvature at s (left turn > 0)
     stop_index: int = 1  # index in ``lanes`` of the first junction-internal lane (lanes before it: the approach)
     junction: str = ""  # id of the managed junction the path crosses ("" for the generated net)
+    speed_limits: tuple[float, ...] = ()  # [m/s] SUMO's speed limit of each of ``lanes`` (a turn's are lower)
 
     @property
     def approach_lane(self) -> str:
@@ -67,6 +68,18 @@ class MovementPath:
         if len(self.junction_lanes) < 2:
             return float("inf")
         return float(self.lane_starts[self.stop_index + 1])
+
+    def speed_limit_ahead(self, s: float, v_desired: float, decel: float) -> float:
+        """[m/s] the lowest lane speed limit in force at arc length ``s`` [m] for a vehicle that
+        wants ``v_desired`` [m/s]: a lane's limit L holds from (v_desired^2 - L^2) / (2 decel)
+        before the lane begins (where braking at ``decel`` [m/s^2] from v_desired reaches L at its
+        start, as a driver slows for a turn) to the lane's end; ``v_desired`` where none does."""
+        cap = v_desired
+        ends = self.lane_starts[1:] + (self.length,)
+        for start, end, limit in zip(self.lane_starts, ends, self.speed_limits):
+            if limit < cap and start - (v_desired ** 2 - limit ** 2) / (2.0 * decel) <= s < end:
+                cap = limit
+        return cap
 
     def point_at(self, s: float | np.ndarray) -> np.ndarray:
         """[m] (x, y) at arc length ``s`` (clipped to the path)."""
@@ -197,7 +210,7 @@ def load_paths(net_file: str | FsPath) -> dict[str, MovementPath]:
                         exit_lane=exit_lane, lanes=tuple(ln.getID() for ln in lanes),
                         lane_starts=line.lane_starts, s_stop=line.lane_starts[1], s_exit=line.lane_starts[-1],
                         length=line.length, s=line.s, xy=line.xy, heading=line.heading,
-                        curvature=line.curvature)
+                        curvature=line.curvature, speed_limits=tuple(float(ln.getSpeed()) for ln in lanes))
     return paths
 
 
