@@ -33,7 +33,7 @@ from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import movement_conflicts
-from intersection_cosim.network.junction_net import load_movements
+from intersection_cosim.network.junction_net import junction_table, load_movements
 from intersection_cosim.network.outline import junction_centre
 from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.movements import Movements, paper_movements
@@ -240,7 +240,15 @@ def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
         raise InputError(scn.source, "controller.kind", scn.controller.kind,
                          "an all-way stop needs the generated net (a net file keeps its own junction types)")
     net = Path(scn.network.file)
-    return net, load_movements(net, scn.network.junctions, scn.network.control_range)
+    movements = load_movements(net, scn.network.junctions, scn.network.control_range)
+    if scn.network.signals == "on" and controller.controls_vehicles:
+        table = junction_table(net, all_junctions=True)
+        lit = table.loc[table["id"].isin(scn.network.junctions) & table["type"].str.startswith("traffic_light"), "id"]
+        if len(lit):
+            raise InputError(scn.source, "network.signals", "on",
+                             f"{scn.controller.kind} drives the vehicles through its junctions and would run the "
+                             f"lights of {', '.join(lit)}: use 'off', or sumo-tls for the signal programme")
+    return net, movements
 
 
 def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -> dict[str, dict]:

@@ -55,3 +55,17 @@ def test_prepare_output_refuses_a_file_and_a_foreign_folder(tmp_path):
     assert tmp.parent == tmp_path and tmp.name.startswith(".done.tmp-")
     tmp.rmdir()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["done", "file", "notes"]
+
+
+def test_a_controller_that_drives_through_kept_lights_is_refused_in_one_line(tmp_path, capsys):
+    """signals = "on" keeps a managed junction's lights: SUMO's drivers obey them, but the game
+    controllers command their vehicles through the junction and would run them."""
+    cross = (Path(__file__).resolve().parents[2] / "scenarios" / "cross_low.toml").read_text()
+    assert 'signals = "off"' in cross
+    scenario = tmp_path / "lit.toml"
+    scenario.write_text(cross.replace('signals = "off"', 'signals = "on"'))
+    out = tmp_path / "run"
+    assert main(["run", str(scenario), "--controller", "nash", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "network.signals = 'on'" in err and "run the lights of 0" in err
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["lit.toml"]
