@@ -45,8 +45,7 @@ def limit_acceleration(path: MovementPath, s: float, v: float, decel: float, per
     """[m/s^2] the acceleration that keeps a vehicle at arc length ``s`` [m] and speed ``v`` [m/s]
     within the lane limits of ``path`` (module docstring); inf when none binds."""
     cap = math.inf
-    ends = path.lane_starts[1:] + (path.length,)
-    for start, end, limit in zip(path.lane_starts, ends, path.speed_limits):
+    for start, end, limit in path.lane_limits:
         if v <= limit + SPEED_TOL or s >= end:
             continue
         if s >= start:  # on the lane: back to its limit within the period

@@ -242,13 +242,19 @@ def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
     net = Path(scn.network.file)
     movements = load_movements(net, scn.network.junctions, scn.network.control_range)
     if scn.network.signals == "on" and controller.controls_vehicles:
-        table = junction_table(net, all_junctions=True)
-        lit = table.loc[table["id"].isin(scn.network.junctions) & table["type"].str.startswith("traffic_light"), "id"]
-        if len(lit):
-            raise InputError(scn.source, "network.signals", "on",
-                             f"{scn.controller.kind} drives the vehicles through its junctions and would run the "
-                             f"lights of {', '.join(lit)}: use 'off', or sumo-tls for the signal programme")
+        _refuse_kept_lights(scn, net)
     return net, movements
+
+
+def _refuse_kept_lights(scn: Scenario, net: Path) -> None:
+    """An InputError if a managed junction keeps its traffic light (``signals = "on"``) for a
+    controller that drives its vehicles through the junction: they would run its lights."""
+    table = junction_table(net, all_junctions=True)
+    lit = table.loc[table["id"].isin(scn.network.junctions) & table["type"].str.startswith("traffic_light"), "id"]
+    if len(lit):
+        raise InputError(scn.source, "network.signals", "on",
+                         f"{scn.controller.kind} drives the vehicles through its junctions and would run the "
+                         f"lights of {', '.join(lit)}: use 'off', or sumo-tls for the signal programme")
 
 
 def _vehicle_specs(scn: Scenario, flow_vehicles: list[dict], controlled: bool) -> dict[str, dict]:

@@ -30,8 +30,7 @@ def lane_polygon(shape: np.ndarray, width: float) -> np.ndarray:
 
 def junction_centre(net_file: str | Path, junction: str) -> tuple[float, float]:
     """[m] the position of ``junction`` in the net's frame."""
-    x, y = sumolib.net.readNet(str(net_file)).getNode(junction).getCoord()[:2]
-    return float(x), float(y)
+    return junction_outlines(net_file, (junction,))[junction][0]
 
 
 def junction_outlines(net_file: str | Path, junctions) -> dict[str, tuple[tuple[float, float], np.ndarray]]:

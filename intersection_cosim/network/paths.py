@@ -69,14 +69,19 @@ class MovementPath:
             return float("inf")
         return float(self.lane_starts[self.stop_index + 1])
 
+    @property
+    def lane_limits(self) -> tuple[tuple[float, float, float], ...]:
+        """(start [m], end [m], speed limit [m/s]) of each of ``lanes`` along the path."""
+        ends = self.lane_starts[1:] + (self.length,)
+        return tuple(zip(self.lane_starts, ends, self.speed_limits))
+
     def speed_limit_ahead(self, s: float, v_desired: float, decel: float) -> float:
         """[m/s] the lowest lane speed limit in force at arc length ``s`` [m] for a vehicle that
         wants ``v_desired`` [m/s]: a lane's limit L holds from (v_desired^2 - L^2) / (2 decel)
         before the lane begins (where braking at ``decel`` [m/s^2] from v_desired reaches L at its
         start, as a driver slows for a turn) to the lane's end; ``v_desired`` where none does."""
         cap = v_desired
-        ends = self.lane_starts[1:] + (self.length,)
-        for start, end, limit in zip(self.lane_starts, ends, self.speed_limits):
+        for start, end, limit in self.lane_limits:
             if limit < cap and start - (v_desired ** 2 - limit ** 2) / (2.0 * decel) <= s < end:
                 cap = limit
         return cap
