@@ -610,12 +610,15 @@ def tradeoff_points(table: pd.DataFrame, vehicle: str) -> pd.DataFrame:
 def draw_kappa_tradeoff(axes, table: pd.DataFrame, vehicle: str) -> pd.DataFrame:
     """Two panels: ``vehicle``'s travel time against its min TTC (``axes[0]``) and min PET
     (``axes[1]``), one point per kappa value labelled with it, joined in kappa order, one marker
-    per controller; returns :func:`tradeoff_points`."""
+    per controller (a kappa value is labelled at its first controller's point only: the
+    controllers' points of one value often coincide, and their labels would print over each
+    other; the colour names the value at every point); returns :func:`tradeoff_points`."""
     points = tradeoff_points(table, vehicle)
     norm = matplotlib.colors.Normalize(0.0, 1.0)
     cmap = plt.get_cmap("coolwarm")  # blue cautious, red aggressive
     for ax, column, label in ((axes[0], "min_ttc", f"min TTC of {vehicle}'s conflicts, ours [s]"),
                               (axes[1], "min_pet", f"min PET of {vehicle}'s conflicts, SUMO SSM [s]")):
+        labelled = set()
         for i, (c, g) in enumerate(points.groupby("controller", sort=False)):
             g = g[np.isfinite(g[column]) & np.isfinite(g["travel_time"])]
             ax.plot(g["travel_time"], g[column], color="#7f7f7f", lw=0.9, zorder=2)
@@ -623,6 +626,9 @@ def draw_kappa_tradeoff(axes, table: pd.DataFrame, vehicle: str) -> pd.DataFrame
                        marker=TRAJECTORY_MARKERS[i % len(TRAJECTORY_MARKERS)], edgecolors="black", linewidths=0.6,
                        label=c)
             for k, (_, r) in enumerate(g.iterrows()):  # labels alternate above and below: neighbours stay apart
+                if r["kappa"] in labelled:
+                    continue
+                labelled.add(r["kappa"])
                 ax.annotate(f"$\\kappa$ {r['kappa']:g}", (r["travel_time"], r[column]),
                             xytext=(7, 5) if k % 2 == 0 else (7, -12), textcoords="offset points", fontsize=8,
                             gid="kappa-label")

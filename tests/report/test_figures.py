@@ -139,6 +139,17 @@ def test_kappa_tradeoff_has_one_labelled_point_per_kappa_value():
     assert axes[1].get_ylabel() == "min PET of V2's conflicts, SUMO SSM [s]"
 
 
+def test_kappa_values_are_labelled_once_when_two_controllers_share_them():
+    one = _sweep_table()
+    two = pd.concat([one, one.assign(controller="stackelberg")], ignore_index=True)
+    fig, axes = plt.subplots(1, 2)
+    points = figures.draw_kappa_tradeoff(axes, two, "V2")
+    assert len(points) == 10  # five kappa values under each controller
+    for ax in axes:
+        labels = [t.get_text() for t in ax.texts if t.get_gid() == "kappa-label"]
+        assert labels == [f"$\\kappa$ {k:g}" for k in (0.1, 0.3, 0.5, 0.7, 0.9)]  # not printed twice
+
+
 def test_a_constant_zero_metric_gets_an_axis_from_zero_with_the_count_shown():
     fig, ax = plt.subplots()
     table = _sweep_table()[lambda d: d["kappa_V2"].isin([0.1, 0.9])]
