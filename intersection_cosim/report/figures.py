@@ -530,6 +530,26 @@ def _axis_label(column: str) -> str:
     return column.replace("kappa_", "$\\kappa$ of ") if column.startswith("kappa_") else column
 
 
+VALUE_LABEL_PLACES = ((0, 7, "center"), (0, -14, "center"), (9, -3, "left"))  # above, below, right [pt]
+
+
+def _label_values(ax, means: dict, metric: str) -> None:
+    """Write each controller's mean (``means``: controller -> (Series over x, colour)) at its
+    point: at each x the highest above its point, the lowest below, a third one to the right, so
+    the labels of nearly equal values do not print over each other."""
+    xs = sorted({x for series, _ in means.values() for x in series.index})
+    for x in xs:
+        at = [(float(s[x]), colour) for s, colour in means.values() if x in s.index and np.isfinite(s[x])]
+        order = sorted(range(len(at)), key=lambda i: -at[i][0])
+        places = [VALUE_LABEL_PLACES[0]] if len(at) == 1 else \
+            [VALUE_LABEL_PLACES[0], *VALUE_LABEL_PLACES[2:len(at)], VALUE_LABEL_PLACES[1]]
+        for rank, i in enumerate(order):
+            y, colour = at[i]
+            dx, dy, ha = places[rank]
+            ax.annotate(_short(y, metric), (x, y), xytext=(dx, dy), textcoords="offset points", ha=ha,
+                        fontsize=8, color=colour, gid="value-label")
+
+
 def kappa_lines(table: pd.DataFrame, metric: str, axis: str, out_png: Path, title: str | None = None) -> Path:
     """``metric`` against the kappa axis ``axis`` (:func:`draw_kappa_lines`), written to ``out_png``."""
     fig, ax = plt.subplots(figsize=(6.4, 4.0), layout="constrained")
@@ -549,16 +569,15 @@ def draw_kappa_lines(ax, table: pd.DataFrame, metric: str, axis: str) -> None:
     values = ok[metric].astype(float).to_numpy() if metric in ok else np.zeros(0)
     values = values[np.isfinite(values)]
     constant = bool(len(values)) and values.min() == values.max()
+    means = {}
     for c in controllers:
         g = ok[ok["controller"] == c].groupby(axis)[metric].agg(["mean", "min", "max"]).sort_index()
         line, = ax.plot(g.index, g["mean"], marker="o", ms=8 if few else 5, lw=1.6, label=c)
         if (g["max"] > g["min"]).any():
             ax.fill_between(g.index, g["min"], g["max"], color=line.get_color(), alpha=0.15, lw=0)
-        if few and len(controllers) <= 3 and not constant:
-            for x, y in g["mean"].items():
-                if np.isfinite(y):
-                    ax.annotate(_short(y, metric), (x, y), xytext=(0, 7), textcoords="offset points", ha="center",
-                                fontsize=8, color=line.get_color())
+        means[c] = (g["mean"], line.get_color())
+    if few and len(controllers) <= 3 and not constant:
+        _label_values(ax, means, metric)
     if constant:  # the same in every run: an axis from 0, not -0.04..0.04 around the value
         c = float(values[0])
         lo, hi = (0.0, max(1.0, 2.0 * c)) if c >= 0 else (2.0 * c, 0.0)

@@ -150,6 +150,19 @@ def test_kappa_values_are_labelled_once_when_two_controllers_share_them():
         assert labels == [f"$\\kappa$ {k:g}" for k in (0.1, 0.3, 0.5, 0.7, 0.9)]  # not printed twice
 
 
+def test_values_of_two_controllers_at_one_kappa_are_written_above_and_below():
+    one = _sweep_table()
+    two = pd.concat([one, one.assign(controller="stackelberg", mean_travel_time=one["mean_travel_time"] + 0.05)],
+                    ignore_index=True)
+    fig, ax = plt.subplots()
+    figures.draw_kappa_lines(ax, two, "mean_travel_time", "kappa_V2")
+    labels = [t for t in ax.texts if t.get_gid() == "value-label"]
+    assert len(labels) == 10  # five kappa values, two controllers
+    for x in (0.1, 0.3, 0.5, 0.7, 0.9):
+        here = sorted((t for t in labels if t.xy[0] == pytest.approx(x)), key=lambda t: t.xy[1])
+        assert [t.xyann[1] > 0 for t in here] == [False, True]  # the lower value below, the higher above
+
+
 def test_a_constant_zero_metric_gets_an_axis_from_zero_with_the_count_shown():
     fig, ax = plt.subplots()
     table = _sweep_table()[lambda d: d["kappa_V2"].isin([0.1, 0.9])]
