@@ -219,11 +219,26 @@ def write_report(out: Path, table: pd.DataFrame, figures: list[Path]) -> Path:
             f"One row per scenario and controller, aggregated over the seeds ({TABLE_FILE}). Travel time and time "
             "loss over the arrived vehicles of all seeds; throughput = arrived vehicles per hour of the demand "
             f"window; SSM share = encounters with TTC < {ttc_thr:g} s or PET < {pet_thr:g} s; compute time per "
-            "control step.", "", markdown_table(table), "", "## Figures", ""]
+            "control step.", "", markdown_table(table), ""]
+    text += _negative_time_loss_note(table)
+    text += ["## Figures", ""]
     text += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figures]
     path = out / REPORT_FILE
     path.write_text("\n".join(text) + "\n")
     return path
+
+
+def _negative_time_loss_note(table: pd.DataFrame) -> list[str]:
+    """A note under the table when a controller's mean time loss is negative: SUMO counts time
+    against each lane's speed limit, so its vehicles drove faster than the limits (a turn's, with
+    ``[model] lane_speed_limits`` off)."""
+    below = table[pd.to_numeric(table["time_loss_mean"], errors="coerce") < 0]
+    if below.empty:
+        return []
+    who = ", ".join(sorted({f"{r.controller} ({r.scenario})" for r in below.itertuples()}))
+    return [f"Negative mean time loss ({who}): SUMO measures time loss against each lane's speed limit, so "
+            "these vehicles drove faster than the limits, typically through turns. `[model] lane_speed_limits = "
+            "true` makes the game controllers keep them (fcfs does not).", ""]
 
 
 def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:

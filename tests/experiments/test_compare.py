@@ -106,3 +106,16 @@ def test_runs_without_the_ssm_device_leave_the_ssm_columns_empty_not_zero(tmp_pa
     assert table["vehicles"].iloc[0] > 0 and table["collisions"].iloc[0] == 0
     assert table[["ssm_encounters", "ssm_min_ttc", "ssm_min_pet", "ssm_share_under_thresholds"]].isna().all().all()
     assert not list(out.rglob("ssm.xml"))
+
+
+def test_a_negative_time_loss_is_explained_under_the_table(tmp_path):
+    """SUMO's time loss counts against the lanes' limits: below zero, the vehicles were too fast."""
+    from intersection_cosim.experiments.compare import write_report
+
+    row = {c: 0.0 for c in COLUMNS}
+    rows = [dict(row, scenario="fokr38", controller="nash", time_loss_mean=-2.0),
+            dict(row, scenario="fokr38", controller="sumo-priority", time_loss_mean=0.8)]
+    text = write_report(tmp_path, pd.DataFrame(rows, columns=COLUMNS), []).read_text()
+    assert "Negative mean time loss (nash (fokr38))" in text and "lane_speed_limits = true" in text
+    rows[0]["time_loss_mean"] = 0.1
+    assert "Negative mean time loss" not in write_report(tmp_path, pd.DataFrame(rows, columns=COLUMNS), []).read_text()
