@@ -37,3 +37,19 @@ def test_right_turners_keep_the_turns_limit_only_with_lane_speed_limits(tmp_path
         runs[on] = _excess(tmp_path / str(on))
     assert runs[False].max() > 2.0  # [m/s] the paper's model turns at up to 10 m/s
     assert runs[True].max() <= 0.1  # [m/s] within the limit (SPEED_TOL and one SUMO step)
+
+
+def test_on_a_real_city_junction_every_turn_keeps_its_limit(tmp_path):
+    """SUMO's Braunschweig net (tools/game/fokr_bs_demo, gzipped): junction 38's turns are limited
+    to 5.9-7.8 m/s; four turning flows, lights off."""
+    flows = [{"from": a, "to": b, "rate": 300, "kappa": 0.7, "begin": 0.0, "end": 40.0}
+             for a, b in (("-1.23", "3"), ("-2.10", "5"), ("-3.22", "1"), ("-5.5", "2"))]
+    data = {"scenario": {"name": "fokr38", "duration": 40.0, "drain": 20.0, "seed": 3},
+            "controller": {"kind": "stackelberg"}, "model": {"lane_speed_limits": True},
+            "network": {"file": "$SUMO_HOME/tools/game/fokr_bs_demo/fokr_bs.net.xml.gz", "junctions": ["38"]},
+            "flow": flows}
+    summary = run_scenario(scenario_from_dict(data, "<fokr38>"), tmp_path / "run")
+    assert summary["counts"]["arrived"] == summary["counts"]["departed"] >= 8
+    assert summary["counts"]["collisions"] == 0
+    excess = _excess(tmp_path / "run")
+    assert len(excess) > 100 and excess.max() <= 0.1  # [m/s]
