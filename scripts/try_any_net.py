@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         net_file = resolve_path("--net", "net", args.net, Path.cwd())
         table = junction_table(net_file)
-        chosen = args.junction or list(table[table["manageable"]]["id"])[:args.max_junctions]
+        chosen = args.junction or list(table.loc[table["manageable"].astype(bool), "id"])[:args.max_junctions]
         if not chosen:
             raise InputError(net_file, "junctions", "", "no manageable junction in the net "
                              "(intersection-cosim junctions NET --all says why for each)")

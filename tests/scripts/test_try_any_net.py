@@ -5,6 +5,8 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -15,9 +17,10 @@ def _script():
     return module
 
 
-def test_a_net_without_a_manageable_junction_says_so(capsys):
-    """SUMO's rail demo: every junction's connections are rail only."""
-    assert _script().main(["$SUMO_HOME/tools/game/rail/net.net.xml"]) == 2
+@pytest.mark.parametrize("net", ["rail/net.net.xml",  # every junction's connections are rail only
+                                 "racing/spreewaldring.net.xml"])  # a ring: no intersection at all
+def test_a_net_without_a_manageable_junction_says_so(capsys, net):
+    assert _script().main([f"$SUMO_HOME/tools/game/{net}"]) == 2
     captured = capsys.readouterr()
     assert captured.err.count("\n") == 1 and "no manageable junction in the net" in captured.err
     assert captured.out == ""  # no JSON line of an empty result
