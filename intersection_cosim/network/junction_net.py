@@ -28,12 +28,16 @@ from sumolib import geomhelper
 from intersection_cosim.errors import InputError
 from intersection_cosim.network.movements import PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath, centre_line
+from intersection_cosim.network.xml_files import root_attributes
 
 JUNCTIONS_FIELD = "network.junctions"
 NET_FIELD = "network.net"
 DIRECTIONS = {"s": "straight", "l": "left", "r": "right", "t": "turn", "L": "partleft", "R": "partright"}
-LEFT_LIKE = ("left", "partleft", "turn")  # prefer the exit lane furthest left (highest index)
-RIGHT_LIKE = ("right", "partright")  # prefer the exit lane furthest right (lowest index)
+# Lane 0 is the curb lane (rightmost in right-hand traffic, leftmost in a lefthand net). A turn
+# across the oncoming traffic prefers the exit lane nearest the median (highest index), a
+# curb-side turn the curb lane (index 0); by lefthand: the net's <net lefthand="true">.
+FAR_SIDE = {False: ("left", "partleft", "turn"), True: ("right", "partright", "turn")}
+NEAR_SIDE = {False: ("right", "partright"), True: ("left", "partleft")}
 UNMANAGEABLE = {  # junction type -> why such a junction cannot be managed
     "internal": "is a junction-internal point, not a junction",
     "dead_end": "is a dead end (no connections to manage)",
@@ -168,17 +172,18 @@ def _path(conn, upstream: list, internal: list, jid: str) -> MovementPath:
         stop_index=stop_index, junction=jid, speed_limits=tuple(float(ln.getSpeed()) for ln in lanes))
 
 
-def _preference(movement: str, from_index: int, exit_index: int) -> tuple:
+def _preference(movement: str, from_index: int, exit_index: int, lefthand: bool = False) -> tuple:
     """Sort key of an exit lane [lane index] for a movement: preferred first."""
-    if movement in LEFT_LIKE:
+    if movement in FAR_SIDE[lefthand]:
         return (-exit_index,)
-    if movement in RIGHT_LIKE:
+    if movement in NEAR_SIDE[lefthand]:
         return (exit_index,)
     return (abs(exit_index - from_index), exit_index)
 
 
-def _exits(paths: dict[str, MovementPath], from_index: dict[str, int]):
-    """``exits`` and ``siblings`` of :class:`Movements`: paths from one lane onto one road."""
+def _exits(paths: dict[str, MovementPath], from_index: dict[str, int], lefthand: bool = False):
+    """``exits`` and ``siblings`` of :class:`Movements`: paths from one lane onto one road
+    (``lefthand``: the net drives on the left)."""
     groups: dict[tuple[str, str], list[MovementPath]] = {}
     for path in paths.values():
         groups.setdefault((path.lane, path.exit_arm), []).append(path)
@@ -186,7 +191,7 @@ def _exits(paths: dict[str, MovementPath], from_index: dict[str, int]):
     for group in groups.values():
         by_exit = {p.exit_lane: p.id for p in group}
         move, here = group[0].movement, from_index[group[0].lane]
-        order = tuple(sorted(by_exit, key=lambda e: _preference(move, here, int(e))))
+        order = tuple(sorted(by_exit, key=lambda e: _preference(move, here, int(e), lefthand)))
         for path in group:
             exits[path.id] = order
             for exit_lane in order:
@@ -254,7 +259,7 @@ def _load_movements(net_file: str, junctions: tuple[str, ...], control_range: fl
         paths.update(p)
         from_index.update(f)
         foes |= fo
-    exits, siblings = _exits(paths, from_index)
+    exits, siblings = _exits(paths, from_index, root_attributes(net_file).get("lefthand") == "true")
     roles = {}
     for path in paths.values():
         roles.update({lane: READY for lane in path.lanes[:path.stop_index]})

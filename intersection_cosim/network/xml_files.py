@@ -19,6 +19,15 @@ def xml_root(path: str | Path) -> ET.Element:
         return ET.parse(fh).getroot()
 
 
+def root_attributes(path: str | Path) -> dict[str, str]:
+    """The attributes of the root element of the XML file ``path`` (e.g. a net's ``lefthand``),
+    read without parsing the rest of the file."""
+    with sumolib.openz(str(path), "rb") as fh:
+        for _event, element in ET.iterparse(fh, events=("start",)):
+            return dict(element.attrib)
+    return {}
+
+
 def copy_plain(src: str | Path, dst: str | Path) -> None:
     """Copy the XML file ``src`` to ``dst``, uncompressed if ``src`` is gzipped."""
     with sumolib.openz(str(src), "rb") as fin, open(dst, "wb") as fout:

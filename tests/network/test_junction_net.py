@@ -271,3 +271,31 @@ def test_missing_net_file_is_an_input_error(tmp_path):
     bad.write_text("<net")
     with pytest.raises(InputError, match="not a readable SUMO net"):
         junction_table(bad)
+
+
+LEFTHAND_NODES = """<nodes><node id="C" x="0" y="0" type="priority"/><node id="W" x="-100" y="0"/>
+<node id="E" x="100" y="0"/><node id="N" x="0" y="100"/><node id="S" x="0" y="-100"/></nodes>"""
+LEFTHAND_EDGES = "<edges>" + "".join(
+    f'<edge id="{a}_in" from="{a}" to="C" numLanes="2"/><edge id="{a}_out" from="C" to="{a}" numLanes="2"/>'
+    for a in "WENS") + "</edges>"
+LEFTHAND_CONNECTIONS = """<connections>
+<connection from="W_in" to="N_out" fromLane="0" toLane="0"/><connection from="W_in" to="N_out" fromLane="0" toLane="1"/>
+<connection from="W_in" to="E_out" fromLane="0" toLane="0"/><connection from="W_in" to="E_out" fromLane="1" toLane="1"/>
+<connection from="W_in" to="S_out" fromLane="1" toLane="0"/><connection from="W_in" to="S_out" fromLane="1" toLane="1"/>
+</connections>"""
+
+
+def test_in_a_lefthand_net_the_curb_side_turn_prefers_the_curb_lane(tmp_path):
+    """Driving on the left, lane 0 is the curb lane on the left: a left turn (the near side)
+    prefers exit lane 0, a right turn (across the oncoming traffic) the median lane, as a right
+    turn and a left turn do in a right-hand net."""
+    import subprocess
+
+    for name, text in (("n.nod.xml", LEFTHAND_NODES), ("n.edg.xml", LEFTHAND_EDGES), ("n.con.xml", LEFTHAND_CONNECTIONS)):
+        (tmp_path / name).write_text(text)
+    net = tmp_path / "lh.net.xml"
+    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "n.nod.xml", "-e", "n.edg.xml", "-x", "n.con.xml",
+                    "--lefthand", "--no-turnarounds", "-o", net.name], cwd=tmp_path, check=True, capture_output=True)
+    movements = load_movements(net, ("C",), 80.0)
+    exits = {p.movement: movements.exits[p.id] for p in movements.paths.values() if p.approach == "W_in"}
+    assert exits["left"] == ("0", "1") and exits["right"] == ("1", "0")
