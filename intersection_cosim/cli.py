@@ -125,7 +125,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_sweep(sub)
     _add_compare(sub)
-    report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder")
+    report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder (compare writes its own)")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
     _add_animate(sub)
     _add_junctions(sub)

@@ -40,13 +40,13 @@ from intersection_cosim.experiments.axes import AXES
 from intersection_cosim.experiments.files import SSM_THRESHOLDS
 from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_spec, parse_controllers, run_sweep,
                                                   sweep_jobs)
-from intersection_cosim.results.layout import RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
+from intersection_cosim.results.layout import COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
 from intersection_cosim.report.figures import metric_vs_axis, metric_vs_demand
 from intersection_cosim.results.sweep_folder import SweepSpec
 from intersection_cosim.scenario import scenario_from_dict
 
-TABLE_FILE = "comparison.csv"
+TABLE_FILE = COMPARISON_FILE
 REPORT_FILE = "report.md"
 FIGURES_DIR = "figures"
 DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls"

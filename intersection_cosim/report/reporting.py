@@ -23,7 +23,7 @@ import pandas as pd
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.report import figures as fig
-from intersection_cosim.results.layout import (PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE,
+from intersection_cosim.results.layout import (COMPARISON_FILE, PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE,
                                                TRAJECTORIES_FILE, VEHICLES_FILE, run_folder)
 from intersection_cosim.results.sweep_folder import load_spec, sweep_table
 
@@ -47,8 +47,15 @@ def write_report(folder: str | Path) -> Path:
         return sweep_report(folder)
     if (folder / RUN_MARKER).is_file():
         return run_report(folder)
-    problem = "no such folder" if not folder.exists() else \
-        f"is neither a run folder (no {RUN_MARKER}) nor a sweep folder (no {SPEC_FILE})"
+    if (folder / COMPARISON_FILE).is_file():
+        inner = sorted(p.name for p in folder.iterdir() if (p / SPEC_FILE).is_file())
+        problem = (f"is a compare folder: compare writes its {REPORT_FILE} (the same compare command again "
+                   f"refreshes it, skipping finished runs); report takes each scenario's sweep folder in it "
+                   f"({', '.join(inner) or 'none'})")
+    elif not folder.exists():
+        problem = "no such folder"
+    else:
+        problem = f"is neither a run folder (no {RUN_MARKER}) nor a sweep folder (no {SPEC_FILE})"
     raise InputError("report", "folder", str(folder), problem)
 
 

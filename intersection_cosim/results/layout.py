@@ -49,6 +49,7 @@ STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", 
 # --- a sweep folder ----------------------------------------------------------------------------
 SPEC_FILE = "sweep.json"
 TABLE_FILE = "sweep.csv"
+COMPARISON_FILE = "comparison.csv"  # a compare folder's table (one row per scenario and controller)
 RUNS_DIR = "runs"
 FAILED_DIR = "failed"
 

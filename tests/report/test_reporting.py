@@ -50,3 +50,18 @@ def test_the_tradeoff_figure_is_drawn_when_one_vehicle_s_kappa_varies():
     assert tradeoff_vehicle(make_spec(CASE1A, ["V1=0.3", "V3=0.2,0.8"], "nash", "1")) == "V3"
     assert tradeoff_vehicle(make_spec(CASE1A, ["V1=0.3,0.7", "V2=0.2,0.5"], "nash", "1")) is None
     assert tradeoff_vehicle(make_spec(CASE1A, None, "nash", "1")) is None
+
+
+def test_report_on_a_compare_folder_names_the_sweep_folders_it_takes(tmp_path):
+    import pytest
+
+    from intersection_cosim.errors import InputError
+    from intersection_cosim.report.reporting import write_report
+
+    (tmp_path / "comparison.csv").write_text("scenario,controller\n")
+    (tmp_path / "cross_low").mkdir()
+    (tmp_path / "cross_low" / "sweep.json").write_text("{}")
+    with pytest.raises(InputError) as err:
+        write_report(tmp_path)
+    assert err.value.field == "folder" and "is a compare folder" in err.value.problem
+    assert "(cross_low)" in err.value.problem and "same compare command" in err.value.problem
