@@ -17,6 +17,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Polygon
 
 from intersection_cosim.colors import GAME, KAPPA_RANGE, UNCONTROLLED, kappa_color
+from intersection_cosim.report.net_drawing import draw_outline
 
 DPI = 100  # [px per inch] of the frames
 ROAD = "#4d4d4d"  # asphalt
@@ -76,12 +77,7 @@ class FrameDrawer:
         ax.set_facecolor("#e9efe4")
         ax.set_xticks([])
         ax.set_yticks([])
-        for poly in outline.junctions:
-            ax.add_patch(Polygon(poly, closed=True, facecolor=ROAD, edgecolor="none", zorder=0))
-        for poly in outline.lanes:
-            ax.add_patch(Polygon(poly, closed=True, facecolor=ROAD, edgecolor=MARKING, lw=0.6, zorder=1))
-        for line in outline.internal:
-            ax.plot(line[:, 0], line[:, 1], color=PATH_LINE, lw=0.5, ls=":", zorder=2)
+        draw_outline(ax, outline, ROAD, MARKING, PATH_LINE, path_width=0.5)
         frame = "paper frame" if self.run.centre == (0.0, 0.0) else "the net's frame"
         ax.text(0.01, 0.01, f"x, y: {frame} [m]", transform=ax.transAxes, fontsize=7, color="#555555")
         self.fig.suptitle(self.run.title, x=0.41, y=0.985, fontsize=11)
