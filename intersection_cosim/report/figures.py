@@ -32,6 +32,7 @@ from matplotlib.patches import Polygon, Rectangle  # noqa: E402
 
 from intersection_cosim.network.build import NET_FILE  # noqa: E402
 from intersection_cosim.network.outline import junction_outlines, read_outline  # noqa: E402
+from intersection_cosim.report.net_drawing import draw_outline  # noqa: E402
 from intersection_cosim.results.layout import RUN_MARKER  # noqa: E402
 
 DPI = 120
@@ -45,6 +46,8 @@ TIME_CMAP = "viridis"  # trajectory points coloured by time
 TRAJECTORY_MARKERS = ("o", "^", "D", "v", "P", "X", "<", ">", "h", "*")  # one per vehicle
 LINE_STYLES = ("-", "--", "-.", ":")  # velocity lines, one per vehicle (besides its colour)
 SHARED_LANE_OFFSET = 1.4  # [m] sideways between vehicles drawn on a common lane
+LABELLED_VEHICLES = 12  # [-] up to this many vehicles get a start square with their id and a legend
+#                          entry; more (a demand run) would print their labels over each other
 SHARED_LANE_MAX = 4  # [-] a larger group of vehicles on common lanes (a demand run) is not spread:
 #                      it would be drawn off its road
 
@@ -160,13 +163,7 @@ def draw_net_view(ax, net_file: Path, zones, centre: tuple[float, float], half: 
     """A net file's lanes and junctions (network.outline) in the square of half side ``half`` [m]
     around ``centre`` [m] (the net's frame), the polygons ``zones`` (the managed junctions, n x 2
     each) outlined as conflict zones."""
-    outline = read_outline(net_file)
-    for poly in outline.junctions:
-        ax.add_patch(Polygon(poly, closed=True, facecolor=ROAD_COLOUR, edgecolor="none", zorder=0))
-    for poly in outline.lanes:
-        ax.add_patch(Polygon(poly, closed=True, facecolor=ROAD_COLOUR, edgecolor=MARKING_COLOUR, lw=0.6, zorder=0))
-    for line in outline.internal:
-        ax.plot(line[:, 0], line[:, 1], color="white", lw=0.6, ls=":", zorder=1)
+    draw_outline(ax, read_outline(net_file), ROAD_COLOUR, MARKING_COLOUR, "white")
     for shape in zones:
         if len(shape):
             ax.add_patch(Polygon(shape, closed=True, fill=False, edgecolor="#c0392b", lw=1.2, ls="--", zorder=2))
@@ -230,7 +227,8 @@ def draw_trajectories(ax, traj: pd.DataFrame, vehicles: pd.DataFrame | None = No
                       interval: float = POINT_INTERVAL) -> dict[str, pd.DataFrame]:
     """Every vehicle's points every ``interval`` [s], coloured by time (one colour scale, so points
     of one colour are simultaneous), one marker shape per vehicle, a start square labelled with its
-    id; vehicles sharing a lane drawn side by side (:func:`shared_lane_offsets`). Returns the drawn
+    id (up to LABELLED_VEHICLES vehicles); vehicles sharing a lane drawn side by side
+    (:func:`shared_lane_offsets`). Returns the drawn
     points per vehicle (time, x, y after the offset)."""
     ids = _vehicle_order(traj, vehicles)
     offsets = shared_lane_offsets(traj, ids)
@@ -247,14 +245,14 @@ def draw_trajectories(ax, traj: pd.DataFrame, vehicles: pd.DataFrame | None = No
         points = pd.DataFrame({"time": rows["time"].to_numpy()[keep], "x": xy[keep, 0], "y": xy[keep, 1]})
         ax.scatter(points["x"], points["y"], c=points["time"], cmap=cmap, norm=norm, marker=markers[vid], s=30,
                    edgecolors="black", linewidths=0.4, zorder=3)
-        if len(points):
+        if len(points) and len(ids) <= LABELLED_VEHICLES:
             ax.scatter(points["x"].iloc[:1], points["y"].iloc[:1], s=110, marker="s", facecolor="none",
                        edgecolor="black", lw=1.3, zorder=4)
             ax.annotate(vid, (points["x"].iloc[0], points["y"].iloc[0]), xytext=(6, 6), textcoords="offset points",
                         fontsize=8, fontweight="bold", zorder=5,
                         bbox=dict(boxstyle="round,pad=0.15", facecolor="white", edgecolor="none", alpha=0.8))
         drawn[vid] = points
-    if len(ids) <= 12:
+    if len(ids) <= LABELLED_VEHICLES:
         handles = [Line2D([], [], ls="", marker=markers[vid], markerfacecolor="#bfbfbf", markeredgecolor="black",
                           markersize=7, label=_label(vid, vehicles)) for vid in ids]
         handles += [Line2D([], [], ls="", marker="s", markerfacecolor="none", markeredgecolor="black", markersize=10,
@@ -333,7 +331,7 @@ def draw_velocity(ax, traj: pd.DataFrame, vehicles: pd.DataFrame | None = None) 
     for i, vid in enumerate(ids):
         rows = traj[traj["vehicle"] == vid].sort_values("time")
         ax.plot(rows["time"], rows["speed"], color=colours[vid], lw=1.6, ls=LINE_STYLES[i % len(LINE_STYLES)],
-                label=_label(vid, vehicles) if len(ids) <= 12 else None)
+                label=_label(vid, vehicles) if len(ids) <= LABELLED_VEHICLES else None)
         ev = events.loc[vid]
         if np.isfinite(ev["entry_time"]):
             end = ev["exit_time"] if np.isfinite(ev["exit_time"]) else rows["time"].max()
@@ -350,7 +348,7 @@ def draw_velocity(ax, traj: pd.DataFrame, vehicles: pd.DataFrame | None = None) 
                 Line2D([], [], ls="", marker="s", ms=7, color="#bfbfbf", markeredgecolor="black",
                        label="leaves the conflict zone"),
                 Line2D([], [], color="#bfbfbf", lw=6, alpha=0.6, label="inside the conflict zone")]
-    if len(ids) <= 12:
+    if len(ids) <= LABELLED_VEHICLES:
         ax.legend(handles=handles, fontsize=8, loc="best", framealpha=0.9)
     return events.reset_index()
 

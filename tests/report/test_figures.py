@@ -212,3 +212,14 @@ def test_a_large_group_on_common_lanes_is_not_spread_off_its_road():
     assert set(figures.shared_lane_offsets(traj).values()) == {0.0}  # five: drawn on their path
     four = figures.shared_lane_offsets(traj[traj["vehicle"] != "V4"])
     assert sorted(four.values()) == pytest.approx([-2.1, -0.7, 0.7, 2.1])  # four: side by side
+
+
+def test_a_demand_run_gets_no_start_labels_that_would_pile_up():
+    rows = [(0.1 * k, f"f.{i}", -30.0 + k, -6.0, 10.0, "ready", "west_in_1") for i in range(13) for k in range(6)]
+    traj = pd.DataFrame(rows, columns=["time", "vehicle", "x", "y", "speed", "role", "lane"])
+    fig, ax = plt.subplots()
+    figures.draw_trajectories(ax, traj)
+    assert len(ax.texts) == 0 and ax.get_legend() is None  # 13 vehicles from one entry: no ids, no legend
+    fig, ax = plt.subplots()
+    figures.draw_trajectories(ax, traj[traj["vehicle"].isin([f"f.{i}" for i in range(12)])])
+    assert len(ax.texts) == 12 and ax.get_legend() is not None
