@@ -49,6 +49,7 @@ from intersection_cosim.results.sumo_outputs import read_collisions, read_ssm, r
 from intersection_cosim.scenario.load import default_exit_lane, draw_drivers, generate_flow_vehicles
 from intersection_cosim.scenario.vtypes import sumo_type
 from intersection_cosim.scenario.model import Scenario
+from intersection_cosim.scenario.network import route_file_persons
 from intersection_cosim.settings import to_dict
 from intersection_cosim.v2x import Channel
 
@@ -243,6 +244,10 @@ def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
     movements = load_movements(net, scn.network.junctions, scn.network.control_range)
     if scn.network.signals == "on" and controller.controls_vehicles:
         _refuse_kept_lights(scn, net)
+    if scn.network.routes and controller.controls_vehicles and route_file_persons(scn.network.routes):
+        raise InputError(scn.source, "network.routes", scn.network.routes,
+                         f"has pedestrians (person / personFlow): {scn.controller.kind} does not see them and "
+                         "would drive through their crossings; leave them out, or run a sumo-* controller")
     return net, movements
 
 

@@ -144,6 +144,11 @@ def route_file_ids(path: str) -> tuple[set[str], set[str]]:
     return types, demand
 
 
+def route_file_persons(path: str) -> int:
+    """How many top-level pedestrians (``person`` and ``personFlow`` elements) a route file has."""
+    return sum(el.tag in ("person", "personFlow") for el in xml_root(path))
+
+
 def _routes(src: str, value: Any, path: str, net_file: str) -> str:
     field = "network.routes"
     if not os.path.isfile(path):

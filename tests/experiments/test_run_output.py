@@ -69,3 +69,31 @@ def test_a_controller_that_drives_through_kept_lights_is_refused_in_one_line(tmp
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "network.signals = 'on'" in err and "run the lights of 0" in err
     assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["lit.toml"]
+
+
+def test_pedestrians_in_the_route_file_are_refused_for_a_controller_that_does_not_see_them(tmp_path, capsys):
+    """SUMO's Braunschweig junction with people walking over its crossings: the game controllers
+    do not model pedestrians (measured: nash hit ten of them at 10 m/s, SUMO's drivers none)."""
+    (tmp_path / "walk.rou.xml").write_text(
+        '<routes><personFlow id="p" begin="0" end="20" period="4"><walk from="-1.23" to="5"/></personFlow></routes>')
+    scenario = tmp_path / "walk.toml"
+    scenario.write_text("""
+[scenario]
+name = "walk"
+duration = 20.0
+[network]
+file = "$SUMO_HOME/tools/game/fokr_bs_demo/fokr_bs.net.xml.gz"
+junctions = ["38"]
+routes = "walk.rou.xml"
+[[flow]]
+from = "-1.23"
+to = "3"
+rate = 300
+kappa = 0.5
+""")
+    out = tmp_path / "run"
+    assert main(["run", str(scenario), "--controller", "stackelberg", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "network.routes" in err and "has pedestrians" in err
+    assert not out.exists()
+    assert main(["run", str(scenario), "--controller", "sumo-priority", "--out", str(out)]) == 0  # SUMO's drivers see them
