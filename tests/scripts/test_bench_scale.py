@@ -2,19 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 from intersection_cosim.sim.timing import sumo_step_timer
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.scripts.script_module import load_script
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("bench_scale", ROOT / "scripts" / "bench_scale.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("bench_scale")
 
 
 def test_sumo_steps_are_taken_from_the_controllers_window(tmp_path):

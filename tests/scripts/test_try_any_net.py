@@ -2,19 +2,13 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.scripts.script_module import load_script
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("try_any_net", ROOT / "scripts" / "try_any_net.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("try_any_net")
 
 
 @pytest.mark.parametrize("net", ["rail/net.net.xml",  # every junction's connections are rail only
