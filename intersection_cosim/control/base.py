@@ -8,6 +8,7 @@ the simulator.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Mapping, Protocol
 
@@ -76,6 +77,13 @@ class World:
     def widths(self, default: float) -> np.ndarray:
         """[m] (n,) every vehicle's width, ``default`` [m] where the World carries none."""
         return np.full(len(self.ids), float(default)) if self.width is None else self.width
+
+    def desired_speed_of(self, k: int) -> float | None:
+        """[m/s] vehicle k's own desired speed, None where the World carries none (then
+        ModelSettings.v_max)."""
+        if self.desired_speed is None or not math.isfinite(float(self.desired_speed[k])):
+            return None
+        return float(self.desired_speed[k])
 
     def length_of(self, k: int, default: float) -> float:
         """[m] vehicle k's length (``default`` [m] when the World carries none)."""

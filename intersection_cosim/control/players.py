@@ -50,13 +50,6 @@ def prediction_moved(then: tuple, now: tuple, lag: int, tol: float) -> bool:
     return bool(np.abs(s_now[:m] - s_then[lag:]).max() > tol or np.abs(v_now[:m] - v_then[lag:]).max() > tol)
 
 
-def desired_speed(world: World, k: int) -> float | None:
-    """[m/s] vehicle k's own desired speed, None for the model's v_max."""
-    if world.desired_speed is None or not math.isfinite(float(world.desired_speed[k])):
-        return None
-    return float(world.desired_speed[k])
-
-
 def player(world: World, k: int, option: str, relations: Relations, memory: PlanMemory,
            partner: int | None = None) -> Player:
     """Vehicle k taking exit lane ``option``; its leader enters as a fixed trajectory unless the
@@ -67,7 +60,7 @@ def player(world: World, k: int, option: str, relations: Relations, memory: Plan
         s_l, v_l = leader_trajectory(world, leader, memory)
         exo = (s_l + leader.offset, v_l)
         exo_length = None if world.length is None else float(world.length[leader.vehicle])
-    v_max = desired_speed(world, k)  # [m/s]
+    v_max = world.desired_speed_of(k)  # [m/s]
     caps = relations.rows.speed_cap
     if caps is not None and math.isfinite(cap := float(caps[relations.row_of[(k, option)]])):
         v_max = cap  # a lane limit below the desired speed (relations.lane_speed_caps)

@@ -173,9 +173,8 @@ def lane_speed_caps(world: World, rows: Rows, movements: Movements, model: Model
     (MovementPath.speed_limit_ahead), inf where none is below the vehicle's desired speed."""
     caps = np.full(len(rows), np.inf)
     for r, (k, pid) in enumerate(zip(rows.vehicle.tolist(), rows.path)):
-        want = model.v_max  # [m/s]
-        if world.desired_speed is not None and math.isfinite(float(world.desired_speed[k])):
-            want = float(world.desired_speed[k])
+        own = world.desired_speed_of(k)
+        want = model.v_max if own is None else own  # [m/s]
         cap = movements.paths[pid].speed_limit_ahead(float(world.s[k]), want, model.lane_speed_decel)
         if cap < want:
             caps[r] = cap
