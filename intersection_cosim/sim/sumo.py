@@ -28,6 +28,7 @@ from intersection_cosim.control.base import Decisions, World
 from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 
+LENGTH_TOL = 0.01  # [m] a lane whose SUMO length differs from its shape's by less is taken as its shape
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
          libsumo.VAR_LANE_ID, libsumo.VAR_LANEPOSITION)
 
@@ -119,6 +120,7 @@ class SumoSimulation:
     bodies: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # per vehicle, read from
     #   its vType at departure: length [m], width [m], accel [m/s^2], decel [m/s^2]
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
+    _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
 
     @property
@@ -132,6 +134,33 @@ class SumoSimulation:
             for lane in p.lanes[:p.stop_index]:
                 self._approach_paths.setdefault(lane, []).append(pid)
         self.backend.start(["-c", sumocfg, "--no-step-log", "true", *(extra or [])])
+        self._scale = self._lane_scales()
+
+    def _lane_scales(self) -> dict[str, float]:
+        """Per path lane whose SUMO length differs from its shape's length (by ``LENGTH_TOL`` [m]
+        or more; e.g. 239 lanes of SUMO's Braunschweig net, up to 1.1 m on a 15.5 m approach),
+        the ratio of the two: SUMO measures positions in its length, the paths in their shapes'."""
+        scale = {}
+        for path in self.paths.values():
+            ends = (*path.lane_starts[1:], path.length)
+            for lane, start, end in zip(path.lanes, path.lane_starts, ends):
+                length = self.api.lane.getLength(lane)  # [m] SUMO's
+                if lane not in scale and length > 0 and abs((end - start) - length) >= LENGTH_TOL:
+                    scale[lane] = (end - start) / length
+        return scale
+
+    def arc(self, path: MovementPath, lane: str, pos: float) -> float:
+        """[m] arc length along ``path`` of SUMO lane position ``pos`` [m] on ``lane`` (one of its
+        lanes). Where a lane's SUMO length is not its shape's, its positions are scaled to the
+        shape, so that the arc length runs on without a jump from lane to lane (unscaled, a car
+        crossing the stop line of a lane 1.1 m longer than its shape jumped 1.1 m back, and its
+        follower, judging its gap across the line, ran into it)."""
+        return path.lane_starts[path.lanes.index(lane)] + pos * self._scale.get(lane, 1.0)
+
+    def lane_position(self, path: MovementPath, s: float) -> tuple[str, float]:
+        """The SUMO lane and lane position [m] at arc length ``s`` [m] of ``path`` (:meth:`arc`'s inverse)."""
+        lane, pos = path.lane_at(s)
+        return lane, pos / self._scale.get(lane, 1.0)
 
     @property
     def api(self) -> ModuleType:
@@ -156,7 +185,7 @@ class SumoSimulation:
             self.current_path[vid] = info.intended_path
             self._take_over(vid, info)
             if info.start_s is not None:
-                lane, pos = self.paths[info.intended_path].lane_at(info.start_s)
+                lane, pos = self.lane_position(self.paths[info.intended_path], info.start_s)
                 self.api.vehicle.moveTo(vid, lane, pos)
                 self.switched.add(vid)  # moveTo resets its arrival position (see _arrive_switched)
         for vid in self.api.simulation.getArrivedIDList():
@@ -221,7 +250,7 @@ class SumoSimulation:
 
     def _within_range(self, vid: str, lane: str, path: MovementPath) -> bool:
         """Whether ``vid`` on ``lane`` of ``path`` is within ``control_range`` of its stop line."""
-        s = path.lane_starts[path.lanes.index(lane)] + self.states[vid][libsumo.VAR_LANEPOSITION]  # [m]
+        s = self.arc(path, lane, self.states[vid][libsumo.VAR_LANEPOSITION])  # [m]
         return path.s_stop - s <= self.control_range
 
     def _take_over(self, vid: str, info: VehicleInfo) -> None:
@@ -251,8 +280,8 @@ class SumoSimulation:
         if target_id is None:
             return
         old, target = self.paths[pid], self.paths[target_id]
-        s = old.lane_starts[old.lanes.index(lane)] + self.api.vehicle.getLanePosition(vid)
-        new_lane, new_pos = target.lane_at(min(s, target.s_exit - 0.01))
+        s = self.arc(old, lane, self.api.vehicle.getLanePosition(vid))
+        new_lane, new_pos = self.lane_position(target, min(s, target.s_exit - 0.01))
         self.api.vehicle.moveTo(vid, new_lane, new_pos)
         if info.intended_path is not None:
             # a route of the generated net ends exit_distance into the exit lane, which moveTo
@@ -308,8 +337,8 @@ class SumoSimulation:
             pid = self.current_path[vid]
             path = self.paths[pid]
             lane = st[libsumo.VAR_LANE_ID]
-            start = path.lane_starts[path.lanes.index(lane)] if lane in path.lanes else 0.0
-            s[i] = start + st[libsumo.VAR_LANEPOSITION]
+            s[i] = (self.arc(path, lane, st[libsumo.VAR_LANEPOSITION]) if lane in path.lanes
+                    else st[libsumo.VAR_LANEPOSITION])
             arr["v"][i] = st[libsumo.VAR_SPEED]
             arr["a"][i] = st[libsumo.VAR_ACCELERATION]
             arr["x"][i], arr["y"][i] = st[libsumo.VAR_POSITION]
