@@ -10,13 +10,23 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Mapping, Protocol
+from typing import Mapping, NamedTuple, Protocol
 
 import numpy as np
 
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.movements import Movements
 from intersection_cosim.network.paths import MovementPath
+
+
+class Walker(NamedTuple):
+    """A pedestrian on, or walking towards, a crossing of a managed junction (network/crossings.py)."""
+
+    id: str
+    crossing: str  # SUMO lane id of the crossing
+    position: float  # [m] on the crossing's axis (its lane position; < 0 or > its length: still before it)
+    direction: int  # +1 walking towards the axis' end, -1 towards its start
+    speed: float  # [m/s]
 
 
 @dataclass
@@ -45,6 +55,7 @@ class World:
     width: np.ndarray | None = None  # [m] per vehicle (its vType's); None: ModelSettings.vehicle_width
     accel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's strongest acceleration; None: no own limit
     decel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's braking (> 0); None: no own limit
+    walkers: tuple[Walker, ...] = ()  # pedestrians on or walking onto a managed junction's crossings
 
     def subset(self, keep: list[int]) -> "World":
         """The World of the vehicles at indices ``keep`` (in that order): every per-vehicle array
@@ -156,13 +167,15 @@ class Diagnostics:
     no games (then the run has no convergence.csv); an empty tuple for one that solved none.
     ``safety_interventions``: [-] commanded accelerations the safety filter lowered.
     ``box_rule_clearances``: [-] accelerations the safety filter raised so a vehicle clears a
-    crossing it has entered (the box rule). Both None for a controller without that filter
-    (summary.json then records null).
+    crossing it has entered (the box rule). ``pedestrian_holds``: [-] control steps x vehicles
+    held back for a pedestrian at a crossing (control/pedestrians.py). All three None for a
+    controller without that filter (summary.json then records null).
     """
 
     convergence: tuple | None = None
     safety_interventions: int | None = None
     box_rule_clearances: int | None = None
+    pedestrian_holds: int | None = None
 
 
 class Controller(Protocol):
@@ -172,6 +185,9 @@ class Controller(Protocol):
     junction_type: str
     #: True if the controller commands the vehicles (SUMO's own right of way is then switched off).
     controls_vehicles: bool
+    #: True if its vehicles yield to pedestrians at the crossings (SUMO's drivers do; a controller
+    #: that commands vehicles must see the persons itself, else a route file with persons is refused).
+    yields_to_pedestrians: bool
 
     def setup(self, context: ControlContext) -> None: ...
 

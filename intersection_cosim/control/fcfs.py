@@ -102,6 +102,7 @@ class FcfsController:
     """First-come-first-served reservation controller (see the module docstring)."""
 
     controls_vehicles = True
+    yields_to_pedestrians = False  # its reservations know no persons
     junction_type = "priority"
 
     def __init__(self, settings: FcfsSettings | None = None):

@@ -57,6 +57,7 @@ from intersection_cosim.control.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.relations import Relations, step_relations
 from intersection_cosim.control.safety import SafetyFilter
 from intersection_cosim.control.solo import SoloPlanner
+from intersection_cosim.control.pedestrians import pedestrian_holds
 from intersection_cosim.control.speed_limits import lane_speed_holds
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
@@ -64,6 +65,7 @@ from intersection_cosim.games.qp import reset_workspaces, solve_count
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.network.conflicts import movement_conflict_table
+from intersection_cosim.network.crossings import crossing_zones, junction_crossings
 from intersection_cosim.network.waiting import waiting_watches
 
 EQUILIBRIA = {"nash": nash_equilibrium, "stackelberg": stackelberg_equilibrium}
@@ -101,6 +103,7 @@ class GameController:
     """The game-theoretic decision layer; ``equilibrium`` is ``"nash"`` or ``"stackelberg"``."""
 
     controls_vehicles = True
+    yields_to_pedestrians = True  # control/pedestrians.py
 
     def __init__(self, equilibrium: str, settings: GameControllerSettings | None = None,
                  junction_type: str = "priority"):
@@ -118,6 +121,7 @@ class GameController:
         self._applied: dict[str, Plan] = {}  # plans applied before that call
         # sorted vehicle-id pairs the filter had to guard (PolicySettings.filter_event): they play
         self._events: set[tuple[str, str]] = set()
+        self.pedestrian_holds = 0  # control steps x vehicles held back for a pedestrian
 
     # ------------------------------------------------------------------ setup
     def setup(self, context: ControlContext) -> None:
@@ -129,6 +133,11 @@ class GameController:
                                              context.model.vehicle_length, context.touch_width)
         if context.bodies:  # the areas other bodies sweep, built before the first step needs them
             self.table.warm(context.bodies)
+        longest = max([context.model.vehicle_length] + [length for length, _ in context.bodies])  # [m]
+        self.pedestrian_holds = 0
+        self.crossing_zones = crossing_zones(context.movements, junction_crossings(context.net_file,
+                                                                                  context.movements.junctions),
+                                             longest, context.touch_width)
         shift = max(1, int(round(context.control_period / game.dt)))
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt, game.a_max, context.model.v_max)
         lane_costs = LaneChangeCosts(context.movements, context.model)
@@ -153,7 +162,7 @@ class GameController:
         nash_equilibrium(Problem((Player(0.0, 5.0, 0.5),)), self.solver.settings, self.model)
 
     def diagnostics(self) -> Diagnostics:
-        return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared)
+        return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared, self.pedestrian_holds)
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
@@ -307,12 +316,21 @@ class GameController:
         return {e for e in self._events if holds(e)}
 
     def _holds(self, world: World) -> dict[str, float]:
-        """[m/s^2] the caps of the exit-room rule and, with ModelSettings.lane_speed_limits, of
-        the lane speed limits (control/speed_limits.py), the lower of the two per vehicle."""
+        """[m/s^2] the caps of the exit-room rule, of the pedestrians at the crossings
+        (control/pedestrians.py) and, with ModelSettings.lane_speed_limits, of the lane speed
+        limits (control/speed_limits.py), the lowest per vehicle."""
         holds = self._exit_holds(world)
+        period = self.ctx.control_period
+        game, zones = self.settings.game, self.crossing_zones if self.settings.safety.yield_to_pedestrians else {}
+        others = [pedestrian_holds(world, self.ctx.movements, zones, self.memory.options,
+                                   self.memory.plans, self.settings.safety, self.model.tcp_speed_floor,
+                                   lambda k: world.accel_limits(k, game.a_min, game.a_max), game.comfort_brake, period)]
+        self.pedestrian_holds += len(others[0])
         if self.model.lane_speed_limits:
-            for vid, cap in lane_speed_holds(world, self.ctx.movements, self.memory.options, self.model.lane_speed_decel,
-                                             self.ctx.control_period).items():
+            others.append(lane_speed_holds(world, self.ctx.movements, self.memory.options, self.model.lane_speed_decel,
+                                           period))
+        for caps in others:
+            for vid, cap in caps.items():
                 holds[vid] = min(cap, holds.get(vid, math.inf))
         return holds
 

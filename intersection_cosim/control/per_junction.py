@@ -61,7 +61,8 @@ def merge_diagnostics(parts: list[Diagnostics]) -> Diagnostics:
 
     conv = [d.convergence for d in parts]
     convergence = None if all(c is None for c in conv) else tuple(r for c in conv for r in (c or ()))
-    return Diagnostics(convergence, total("safety_interventions"), total("box_rule_clearances"))
+    return Diagnostics(convergence, total("safety_interventions"), total("box_rule_clearances"),
+                       total("pedestrian_holds"))
 
 
 class PerJunction:
@@ -76,6 +77,7 @@ class PerJunction:
         self._first: Controller | None = factory()
         self.junction_type = self._first.junction_type
         self.controls_vehicles = self._first.controls_vehicles
+        self.yields_to_pedestrians = self._first.yields_to_pedestrians
         self.parts: dict[str, Controller] = {}  # junction id -> its controller, after setup
         self._movements = None
 

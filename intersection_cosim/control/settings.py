@@ -95,11 +95,22 @@ class SafetySettings:
     exit_room: bool = True  # [-] don't block the box: hold a vehicle at its stop line while its exit
     #                         lane has less than vehicle_length + exit_min_gap free (control/exit_room.py)
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
+    # pedestrians at the crossings of a managed junction (control/pedestrians.py)
+    yield_to_pedestrians: bool = True  # [-] false: the vehicles ignore people (an ablation: they are hit)
+    pedestrian_time_gap: float = 1.5  # [s] least time between a pedestrian's and a vehicle's time on
+    #                                   the vehicle's stretch of a crossing
+    pedestrian_clearance: float = 1.0  # [m] room kept to a pedestrian along the crossing, each side
+    pedestrian_margin: float = 1.5  # [m] a vehicle yielding inside the junction stops this far before the crossing
+    pedestrian_speed_low: float = 0.5  # [m/s] a slower (or standing) pedestrian is predicted to walk on at this
+    pedestrian_speed_high: float = 1.5  # [m/s] a slower pedestrian may reach the vehicle's stretch at this speed
 
     def check(self) -> list[tuple[str, str]]:
         problems = [("game_gap_share", "must lie in [0, 1]")] if not 0 <= self.game_gap_share <= 1 else []
         problems += non_negative(self, "safety_time_gap", "safety_margin", "clear_accel", "clear_speed", "exit_min_gap",
-                                 "human_brake", "human_margin")
+                                 "human_brake", "human_margin", "pedestrian_time_gap", "pedestrian_clearance",
+                                 "pedestrian_margin")
+        problems += [(name, "must be > 0") for name in ("pedestrian_speed_low", "pedestrian_speed_high")
+                     if not getattr(self, name) > 0]
         if self.yield_order not in YIELD_ORDERS:
             problems.append(("yield_order", f"must be one of {', '.join(YIELD_ORDERS)}"))
         return problems

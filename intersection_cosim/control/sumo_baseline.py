@@ -15,6 +15,7 @@ from intersection_cosim.control.base import ControlContext, Decisions, Diagnosti
 class SumoController:
     junction_type: str = "priority"
     controls_vehicles: bool = False
+    yields_to_pedestrians: bool = True  # SUMO's drivers
 
     def setup(self, context: ControlContext) -> None:
         self.context = context

@@ -13,9 +13,10 @@ Aggregation over the seeds of a (scenario, controller): travel time mean and 95t
 time loss mean over all arrived vehicles of all seeds; throughput = arrived vehicles per hour of
 the demand window (``[scenario] duration``, summed over the seeds); SSM min TTC / min PET over all
 encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``);
-collisions summed; ``late_or_stuck``: departed vehicles that never arrived (a deadlock) or lost
-more than 60 s against free flow (tripinfo's timeLoss: a queue that does not drain), whatever the
-length of their routes, so the same bound holds on a small junction and on a long OSM approach;
+collisions summed (``pedestrian_collisions``: those of a vehicle and a person); ``late_or_stuck``:
+departed vehicles that never arrived (a deadlock) or lost more than 60 s against free flow
+(tripinfo's timeLoss: a queue that does not drain), whatever the length of their routes, so the
+same bound holds on a small junction and on a long OSM approach;
 ``ended_early``: runs that ended before their end because every vehicle stood still (a deadlock,
 experiments.deadlock) or past scenario.memory_limit (experiments.memory_guard); compute time per
 control step (summed over the junctions' controllers of a net with several) median and 95th
@@ -56,7 +57,7 @@ LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against fre
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
-           "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps",
+           "pedestrian_collisions", "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps",
            "deadline_misses",
            "deadline_miss_share",
            "deferred_step_share"]
@@ -147,7 +148,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         mine = [j for j in jobs if j.controller == controller and j.axes == point and j.finished]
         veh, steps, ssm = [], [], []
         window = 0.0
-        vehicles = arrived = collisions = late = ended = 0
+        vehicles = arrived = collisions = walkers_hit = late = ended = 0
         for job in mine:
             run = Path(job.run_dir)
             summary = json.loads((run / RUN_MARKER).read_text())
@@ -157,6 +158,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             vehicles += int(counts.get("vehicles") or 0)
             arrived += int(counts.get("arrived") or 0)
             collisions += int(counts.get("collisions") or 0)
+            walkers_hit += int(counts.get("pedestrian_collisions") or 0)  # of the collisions: with a person
             ended += summary.get("ended_early") is not None
             va = pd.read_csv(run / VEHICLES_FILE, dtype={"vehicle": str})
             late += int((va["depart"].notna() & ~(va["arrival"].notna() & (va["time_loss"] <= LATE_AFTER))).sum())
@@ -184,6 +186,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss) if ssm else math.nan,
             "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
             "collisions": collisions if mine else math.nan,
+            "pedestrian_collisions": walkers_hit if mine else math.nan,
             "late_or_stuck": late if mine else math.nan,
             "ended_early": ended if mine else math.nan,  # runs ended early: a deadlock or memory_limit
             "compute_ms_median": _quantile(cms, 0.5), "compute_ms_p95": _quantile(cms, 0.95),

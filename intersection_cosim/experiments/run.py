@@ -33,6 +33,7 @@ from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import movement_conflicts
+from intersection_cosim.network.crossings import junction_crossings
 from intersection_cosim.network.junction_net import junction_table, load_movements
 from intersection_cosim.network.outline import junction_centre
 from intersection_cosim.network.path_id import PathId
@@ -45,7 +46,7 @@ from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLU
                                                RUN_MARKER, SSM_FILE, STEP_COLUMNS, STEPS_FILE, TRAJECTORIES_FILE,
                                                TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
-from intersection_cosim.results.sumo_outputs import read_collisions, read_ssm, read_tripinfo
+from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
 from intersection_cosim.scenario.load import default_exit_lane, draw_drivers, generate_flow_vehicles
 from intersection_cosim.scenario.vtypes import sumo_type
 from intersection_cosim.scenario.model import Scenario
@@ -244,10 +245,11 @@ def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
     movements = load_movements(net, scn.network.junctions, scn.network.control_range)
     if scn.network.signals == "on" and controller.controls_vehicles:
         _refuse_kept_lights(scn, net)
-    if scn.network.routes and controller.controls_vehicles and route_file_persons(scn.network.routes):
+    if scn.network.routes and not controller.yields_to_pedestrians and route_file_persons(scn.network.routes):
         raise InputError(scn.source, "network.routes", scn.network.routes,
                          f"has pedestrians (person / personFlow): {scn.controller.kind} does not see them and "
-                         "would drive through their crossings; leave them out, or run a sumo-* controller")
+                         "would drive through their crossings; leave them out, or run nash, stackelberg or a "
+                         "sumo-* controller")
     return net, movements
 
 
@@ -337,9 +339,11 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
         gui = dataclasses.replace(gui, centre=junction_centre(inputs.net, scn.network.junctions[0]))
     view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None
     observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
-    generic = {} if scn.network.generated else dict(lane_change_mode=LANE_CHANGE_MODE_STRATEGIC,
-                                                    adopt_controlled=controller.controls_vehicles,
-                                                    control_range=scn.network.control_range)
+    generic = {} if scn.network.generated else dict(
+        lane_change_mode=LANE_CHANGE_MODE_STRATEGIC, adopt_controlled=controller.controls_vehicles,
+        control_range=scn.network.control_range,
+        crossings=junction_crossings(inputs.movements.net_file, inputs.movements.junctions)
+        if controller.controls_vehicles else {})
     sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,
                          exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO,
                          **generic)
@@ -500,7 +504,9 @@ def _summary(scn: Scenario, infos: dict, tables: _Tables, diagnostics: Diagnosti
                    "fallbacks": int(steps["fallback"].sum()),
                    "steps_with_deferred_work": int(steps["deferred"].gt(0).sum()),
                    "safety_interventions": diagnostics.safety_interventions,
-                   "box_rule_clearances": diagnostics.box_rule_clearances},
+                   "box_rule_clearances": diagnostics.box_rule_clearances,
+                   "pedestrian_collisions": int(collisions["type"].isin(PEDESTRIAN_COLLISIONS).sum()),
+                   "pedestrian_holds": diagnostics.pedestrian_holds},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,

@@ -86,7 +86,8 @@ COLUMN_FORMATS = (
     *((name, f"{name.replace('_', ' ')} [-]", None) for name in (
         "collisions", "arrived", "vehicles", "departed", "deadline_misses", "fallbacks", "control_steps",
         "game_steps", "seeds", "runs_ok", "ssm_encounters", "late_or_stuck", "ended_early", "steps_with_deferred_work",
-        "safety_interventions", "box_rule_clearances", "junction_steps", "games")),
+        "safety_interventions", "box_rule_clearances", "pedestrian_collisions", "pedestrian_holds", "junction_steps",
+        "games")),
     ("junction", "junction", "text"), ("mean_delay", "mean delay [s]", 2),
 )
 

@@ -52,6 +52,9 @@ def read_ssm(path: str | Path) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["ego", "foe", "min_ttc", "pet", "max_drac"])
 
 
+PEDESTRIAN_COLLISIONS = ("crossing", "walkingarea", "sharedLane")  # SUMO's collision types of a vehicle and a person
+
+
 def read_collisions(path: str | Path) -> pd.DataFrame:
     """One row per collision SUMO detected: time [s], collider, victim, type, lane."""
     rows = []

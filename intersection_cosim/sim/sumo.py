@@ -24,11 +24,13 @@ from typing import Mapping
 import libsumo
 import numpy as np
 
-from intersection_cosim.control.base import Decisions, World
+from intersection_cosim.control.base import Decisions, Walker, World
+from intersection_cosim.network.crossings import PedestrianCrossing
 from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 
 LENGTH_TOL = 0.01  # [m] a lane whose SUMO length differs from its shape's by less is taken as its shape
+WALK_SPEED_MIN = 0.2  # [m/s] a person on a walking area slower than this waits (for a gap), it is not walking on
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
          libsumo.VAR_LANE_ID, libsumo.VAR_LANEPOSITION)
 
@@ -119,7 +121,10 @@ class SumoSimulation:
     taken: set[str] = field(default_factory=set)  # vehicles whose speed the controller commands
     bodies: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # per vehicle, read from
     #   its vType at departure: length [m], width [m], accel [m/s^2], decel [m/s^2]
+    crossings: Mapping[str, PedestrianCrossing] = field(default_factory=dict)  # the managed junctions'
+    #   pedestrian crossings by lane id (network/crossings.py); none: no person is read
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
+    _walking_areas: dict[str, list[PedestrianCrossing]] = field(default_factory=dict)  # lane -> crossings at it
     _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
 
@@ -133,6 +138,9 @@ class SumoSimulation:
                 self._lane_to_paths.setdefault(lane, []).append(pid)
             for lane in p.lanes[:p.stop_index]:
                 self._approach_paths.setdefault(lane, []).append(pid)
+        for crossing in self.crossings.values():
+            for area in crossing.walking_areas:
+                self._walking_areas.setdefault(area, []).append(crossing)
         self.backend.start(["-c", sumocfg, "--no-step-log", "true", *(extra or [])])
         self._scale = self._lane_scales()
 
@@ -361,7 +369,35 @@ class SumoSimulation:
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
                      lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human,
                      exit_free=self._exit_free(exit_choices, roles, ids), length=body[:, 0], width=body[:, 1],
-                     accel=body[:, 2], decel=body[:, 3])
+                     accel=body[:, 2], decel=body[:, 3], walkers=self.walkers())
+
+    def walkers(self) -> tuple[Walker, ...]:
+        """The persons on a managed junction's crossing, and those on a walking area at one that
+        walk (at least ``WALK_SPEED_MIN``) with that crossing as their next edge; () without
+        crossings. On a walking area a person's axis position is its position projected onto the
+        crossing's axis, so it lies before the axis' start or past its end."""
+        if not self.crossings:
+            return ()
+        person, out = self.api.person, []
+        for pid in person.getIDList():
+            lane = person.getLaneID(pid)
+            crossing = self.crossings.get(lane)
+            if crossing is not None:
+                angle = math.radians(person.getAngle(pid))  # navigational: 0 north, clockwise
+                d = crossing.direction
+                sign = 1 if math.sin(angle) * d[0] + math.cos(angle) * d[1] >= 0.0 else -1
+                out.append(Walker(pid, lane, person.getLanePosition(pid), sign, person.getSpeed(pid)))
+                continue
+            near = self._walking_areas.get(lane)
+            if not near or person.getSpeed(pid) < WALK_SPEED_MIN:
+                continue
+            nxt = person.getNextEdge(pid)
+            for crossing in near:
+                if crossing.edge == nxt:
+                    pos = crossing.along(*person.getPosition(pid))
+                    sign = 1 if pos < crossing.length / 2 else -1
+                    out.append(Walker(pid, crossing.lane, pos, sign, person.getSpeed(pid)))
+        return tuple(out)
 
     def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
         """Per exit lane (SUMO lane id) a READY vehicle may take: ([m] from the lane's start to the

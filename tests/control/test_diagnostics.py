@@ -14,7 +14,7 @@ from intersection_cosim.models.settings import ModelSettings
 
 def test_defaults_mean_not_applicable():
     d = Diagnostics()
-    assert (d.convergence, d.safety_interventions, d.box_rule_clearances) == (None, None, None)
+    assert (d.convergence, d.safety_interventions, d.box_rule_clearances, d.pedestrian_holds) == (None,) * 4
     with pytest.raises(dataclasses.FrozenInstanceError):
         d.safety_interventions = 1
 
@@ -30,5 +30,6 @@ def test_a_fresh_game_controller_reports_zero_counts_and_no_records(kind, paths,
     ctrl = registry.create(kind, None, "priority")
     ctrl.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
                               settings=None, etm=True))
-    assert ctrl.diagnostics() == Diagnostics(convergence=(), safety_interventions=0, box_rule_clearances=0)
+    assert ctrl.diagnostics() == Diagnostics(convergence=(), safety_interventions=0, box_rule_clearances=0,
+                                             pedestrian_holds=0)
 

@@ -19,6 +19,7 @@ class _Recorder:
 
     junction_type = "priority"
     controls_vehicles = True
+    yields_to_pedestrians = True
 
     def setup(self, context):
         self.junctions = context.movements.junctions

@@ -1,0 +1,141 @@
+"""Yielding to pedestrians at the crossings of a managed junction (not in the paper).
+
+The controllers command their vehicles with SUMO's right-of-way checks switched off, so SUMO no
+longer stops them for a person on a zebra crossing. This rule does, as a careful driver does: a
+controlled vehicle that has not yet reached a crossing on its path (network/crossings.py) stays
+out of it while a pedestrian is on, or walks onto, the stretch of the crossing its body would
+cover, within ``pedestrian_time_gap`` of when the vehicle would be there:
+
+* the vehicle's time over the crossing is its plan's (from its front reaching the zone to its
+  front leaving it: safety.occupancy), or where its plan does not reach the crossing, from its
+  earliest arrival (at full acceleration) to its leaving at its present speed;
+* a pedestrian's runs from its reaching the vehicle's stretch at its speed, or at
+  ``pedestrian_speed_high`` if it is slower (a person may speed up), to its leaving it at its
+  speed, at least ``pedestrian_speed_low`` (a standing person walks on at that speed); one that
+  has passed the stretch, walking away, is clear;
+* the vehicle waits at its stop line if it has not reached it (it enters the junction only to
+  clear it), else stops ``pedestrian_margin`` before the crossing; it brakes from the last moment
+  at which ``brake_from`` [m/s^2] still stops it there after one more period at full
+  acceleration (a vehicle that started braking at the first sight of a person far ahead crawled
+  through the junction for 40 s), and if it can no longer stop before the crossing it drives on
+  (braking then would leave it standing on the crossing).
+
+Every exit lane the vehicle may still take counts. The caps go to the safety filter as holds, as
+the exit-room and lane speed caps do (control/safety.py), so the crossings see the braking
+vehicle.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+from intersection_cosim.control.base import Walker, World
+from intersection_cosim.control.safety import occupancy, stopping_acceleration
+from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.games.problem import Plan
+from intersection_cosim.network.crossings import CrossingZone
+from intersection_cosim.network.movements import Movements
+
+STAND_SPEED = 0.1  # [m/s] a vehicle slower than this is standing
+STAND_REACH = 5.0  # [m] a vehicle standing this close before where it would stop stays (it does not creep up)
+
+
+def walker_window(walker: Walker, span: tuple[float, float], settings: SafetySettings) -> tuple[float, float] | None:
+    """[s] (from, to): when ``walker`` may be on the stretch ``span`` [m] of its crossing's axis
+    (widened by ``pedestrian_clearance``), as the module docstring says; None if it has
+    passed it, walking away."""
+    lo, hi = span[0] - settings.pedestrian_clearance, span[1] + settings.pedestrian_clearance
+    fast = max(walker.speed, settings.pedestrian_speed_high)  # [m/s]
+    slow = max(walker.speed, settings.pedestrian_speed_low)  # [m/s]
+    p = walker.position
+    near, far = (lo, hi) if walker.direction > 0 else (hi, lo)
+    to_near, to_far = (near - p) * walker.direction, (far - p) * walker.direction  # [m] ahead of it
+    if to_far < 0.0:
+        return None  # past the stretch, walking away
+    return max(to_near, 0.0) / fast, to_far / slow
+
+
+def vehicle_window(world: World, k: int, zone: CrossingZone, plan: Plan | None, speed_floor: float,
+                   accel: float) -> tuple[float, float]:
+    """[s] (from, to): when vehicle k's front is in ``zone`` by its ``plan``; where the plan does
+    not reach it, from the earliest (at full acceleration ``accel`` [m/s^2]) to leaving it at its
+    present speed (at least ``speed_floor`` [m/s])."""
+    if plan is not None:
+        t_in, t_out = occupancy(plan, zone.zone_in, zone.zone_out)
+        if math.isfinite(t_in):
+            return t_in, t_out
+    s, v = float(world.s[k]), float(world.v[k])
+    d = max(zone.zone_in - s, 0.0)  # [m]
+    t_in = (math.sqrt(v * v + 2.0 * accel * d) - v) / accel if accel > 0 else d / max(v, speed_floor)
+    return t_in, max(zone.zone_out - s, 0.0) / max(v, speed_floor)
+
+
+def pedestrian_holds(world: World, movements: Movements, zones: Mapping[str, tuple[CrossingZone, ...]],
+                     options: Mapping[str, str], plans: Mapping[str, Plan], settings: SafetySettings,
+                     speed_floor: float, limits_of, brake_from: float, period: float) -> dict[str, float]:
+    """[m/s^2] per controlled vehicle that must yield to a pedestrian (module docstring), the
+    acceleration that keeps it out of the crossing; ``limits_of(k)`` [m/s^2] (hardest braking
+    (< 0), strongest acceleration) of vehicle k, ``speed_floor`` [m/s] as in
+    :func:`vehicle_window`, ``brake_from`` [m/s^2] (> 0) and ``period`` [s] as in the module
+    docstring."""
+    if not world.walkers or not zones:
+        return {}
+    by_crossing: dict[str, list[Walker]] = {}
+    for w in world.walkers:
+        by_crossing.setdefault(w.crossing, []).append(w)
+    out = {}
+    for k, vid in enumerate(world.ids):
+        if world.role[k] == "outside" or world.is_human(k):
+            continue
+        pid = world.path_ids[k]
+        exits = set(world.exit_choices.get(vid, ())) | ({options[vid]} if vid in options else set())
+        s = float(world.s[k])
+        for p in sorted({movements.siblings.get((pid, o), pid) for o in exits} | {pid}):
+            for zone in zones.get(p, ()):
+                if s >= zone.zone_in or not _conflict(world, k, zone, by_crossing.get(zone.lane, ()),
+                                                      plans.get(vid), settings, speed_floor, limits_of(k)[1]):
+                    continue
+                a = _stay_out(s, float(world.v[k]), movements.paths[p].s_stop, zone.zone_in, settings,
+                              limits_of(k), brake_from, period)
+                if a is not None and a < math.inf:
+                    out[vid] = min(a, out.get(vid, math.inf))
+    return out
+
+
+def _conflict(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, settings: SafetySettings,
+              speed_floor: float, accel: float) -> bool:
+    """Whether a walker on ``zone``'s crossing may be on the vehicle's stretch within
+    ``pedestrian_time_gap`` of vehicle k's time over it (:func:`vehicle_window`)."""
+    if not walkers:
+        return False
+    t_in, t_out = vehicle_window(world, k, zone, plan, speed_floor, accel)
+    gap = settings.pedestrian_time_gap  # [s]
+    for w in walkers:
+        window = walker_window(w, zone.span, settings)
+        if window is not None and window[0] < t_out + gap and t_in < window[1] + gap:
+            return True
+    return False
+
+
+def _stay_out(s: float, v: float, s_stop: float, enter: float, settings: SafetySettings,
+              limits: tuple[float, float], brake_from: float, period: float) -> float | None:
+    """[m/s^2] the acceleration that stops a vehicle at ``s`` [m], ``v`` [m/s] at its stop line
+    ``s_stop`` less ``safety_margin`` if it can, else ``pedestrian_margin`` before the crossing
+    at ``enter`` [m], else at its edge, with its ``limits`` (braking, acceleration) [m/s^2]:
+    inf while it need not brake yet (module docstring); standing at most ``STAND_REACH`` before
+    it, it stays; None if it can no longer stop before the crossing."""
+    brake, accel = limits
+    for target in (s_stop - settings.safety_margin, enter - settings.pedestrian_margin, enter - 0.05):
+        if target <= s or target > enter:
+            continue
+        if v < STAND_SPEED and target - s <= STAND_REACH:
+            return max(brake, -v / period)
+        a = stopping_acceleration(s, v, target)
+        if a is None or a < brake:
+            continue
+        v1 = v + accel * period  # [m/s] after one more period at full acceleration
+        if target - (s + (v + 0.5 * accel * period) * period) > v1 * v1 / (2.0 * brake_from):
+            return math.inf
+        return a
+    return max(brake, -v / period) if v < STAND_SPEED else None

@@ -1,0 +1,85 @@
+"""Yielding to pedestrians at crossings (control/pedestrians.py), on SUMO's Braunschweig junction
+38 (tools/game/fokr_bs_demo): a vehicle about to enter stays out of a crossing a person walks on."""
+
+from pathlib import Path
+
+import pytest
+import sumo
+
+from intersection_cosim.control.base import Walker
+from intersection_cosim.control.pedestrians import pedestrian_holds, walker_window
+from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.network.crossings import crossing_zones, junction_crossings
+from intersection_cosim.network.junction_net import load_movements
+from tests.control.conftest import make_world
+
+NET = str(Path(sumo.SUMO_HOME) / "tools" / "game" / "fokr_bs_demo" / "fokr_bs.net.xml.gz")
+PATH = "-1.23_6>5_4"  # straight through; over crossing c4 (its road in), then c1 (its road out)
+ST = SafetySettings()
+
+
+@pytest.fixture(scope="module")
+def fokr():
+    movements = load_movements(NET, ("38",), 100.0)
+    return movements, crossing_zones(movements, junction_crossings(NET, ("38",)), 5.0, 1.8)
+
+
+def test_a_walkers_window_runs_from_reaching_the_stretch_fast_to_leaving_it_at_its_own_speed():
+    span = (4.0, 6.0)  # [m] on the axis; widened by pedestrian_clearance 1 m to 3..7
+    w = Walker("p", "c", 0.0, +1, 1.2)
+    t_in, t_out = walker_window(w, span, ST)
+    assert t_in == pytest.approx(3.0 / 1.5) and t_out == pytest.approx(7.0 / 1.2)  # [s]
+    assert walker_window(w._replace(position=5.0), span, ST) == (0.0, pytest.approx(2.0 / 1.2))
+    assert walker_window(w._replace(position=8.0), span, ST) is None  # past it, walking away
+    back = walker_window(w._replace(position=8.0, direction=-1), span, ST)  # coming back towards it
+    assert back == (pytest.approx(1.0 / 1.5), pytest.approx(5.0 / 1.2))
+    standing = walker_window(w._replace(position=5.0, speed=0.0), span, ST)
+    assert standing == (0.0, pytest.approx(2.0 / 0.5))  # walks on at pedestrian_speed_low
+
+
+def _holds(fokr, s, v, walkers):
+    movements, zones = fokr
+    world = make_world(movements.paths, 10.0, [("A", PATH, s, v)])
+    world.walkers = tuple(walkers)
+    return pedestrian_holds(world, movements, zones, {}, {}, ST, 0.1, lambda k: (-4.0, 2.5), 2.0, 0.1)
+
+
+def test_a_vehicle_waits_at_its_stop_line_for_a_person_on_its_crossing_braking_from_the_last_moment(fokr):
+    movements, zones = fokr
+    path, (c_in, _) = movements.paths[PATH], zones[PATH]
+    mid = sum(c_in.span) / 2  # [m] on the crossing's axis, in front of the vehicle
+    person = Walker("p", c_in.lane, mid, +1, 1.2)
+    stop = path.s_stop - ST.safety_margin  # [m]
+    # 10 m/s: comfortable braking (2 m/s^2) needs 25 m; from 40 m before its stop point it drives on
+    assert _holds(fokr, stop - 40.0, 10.0, [person]) == {}
+    cap = _holds(fokr, stop - 24.0, 10.0, [person])["A"]
+    assert cap == pytest.approx(-100.0 / (2 * 24.0))  # [m/s^2] stops at its stop line
+    assert _holds(fokr, stop - 0.5, 0.0, [person])["A"] == pytest.approx(0.0)  # standing near it, it stays
+    assert _holds(fokr, stop - 10.0, 0.0, [person]) == {}  # standing further back, it may move up
+    # 12 m before the line at 10 m/s it can no longer stop there at 4 m/s^2 but can before the crossing
+    assert _holds(fokr, path.s_stop - 13.0, 10.0, [person])["A"] >= -4.0
+    # too close to stop at all: it drives on (it would stand on the crossing)
+    assert _holds(fokr, c_in.zone_in - 3.0, 10.0, [person]) == {}
+    # nobody, or a person who has passed its stretch walking away: nothing
+    assert _holds(fokr, stop - 20.0, 10.0, []) == {}
+    assert _holds(fokr, stop - 20.0, 10.0, [person._replace(position=c_in.span[1] + 2.0)]) == {}
+
+
+def test_a_person_far_along_the_crossing_does_not_stop_a_vehicle_that_passes_first(fokr):
+    movements, zones = fokr
+    path, (c_in, _) = movements.paths[PATH], zones[PATH]
+    far = Walker("p", c_in.lane, c_in.span[0] - 12.0, +1, 1.2)  # 12 m before its stretch: 8 s at 1.5 m/s
+    assert _holds(fokr, path.s_stop - 20.0, 10.0, [far]) == {}  # over the crossing in ~3 s
+    near = far._replace(position=c_in.span[0] - 3.0)  # 2 s away: within the 1.5 s gap of its passage
+    assert "A" in _holds(fokr, path.s_stop - 20.0, 10.0, [near])
+
+
+def test_a_person_on_the_road_out_holds_the_vehicle_at_its_stop_line_not_in_the_box(fokr):
+    movements, zones = fokr
+    path, (_, c_out) = movements.paths[PATH], zones[PATH]
+    person = Walker("p", c_out.lane, sum(c_out.span) / 2, -1, 0.0)  # standing on the crossing out
+    assert _holds(fokr, path.s_stop - 10.0, 5.0, [person]) == {}  # at 5 m/s it need not brake yet
+    cap = _holds(fokr, path.s_stop - 6.0, 5.0, [person])["A"]
+    assert cap == pytest.approx(-25.0 / (2 * (6.0 - ST.safety_margin)))  # [m/s^2] at its stop line
+    inside = _holds(fokr, c_out.zone_in - 7.0, 5.0, [person])["A"]  # in the junction: before the crossing
+    assert inside == pytest.approx(-25.0 / (2 * (7.0 - ST.pedestrian_margin)))
