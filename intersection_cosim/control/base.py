@@ -27,6 +27,8 @@ class Walker(NamedTuple):
     position: float  # [m] on the crossing's axis (its lane position; < 0 or > its length: still before it)
     direction: int  # +1 walking towards the axis' end, -1 towards its start
     speed: float  # [m/s]
+    x: float = math.nan  # [m] where it is, in the net's frame
+    y: float = math.nan  # [m]
 
 
 @dataclass

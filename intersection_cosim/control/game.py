@@ -65,7 +65,7 @@ from intersection_cosim.games.qp import reset_workspaces, solve_count
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.network.conflicts import movement_conflict_table
-from intersection_cosim.network.crossings import crossing_zones, junction_crossings
+from intersection_cosim.network.crossings import crossing_zones, movement_crossings
 from intersection_cosim.network.waiting import waiting_watches
 
 EQUILIBRIA = {"nash": nash_equilibrium, "stackelberg": stackelberg_equilibrium}
@@ -135,9 +135,8 @@ class GameController:
             self.table.warm(context.bodies)
         longest = max([context.model.vehicle_length] + [length for length, _ in context.bodies])  # [m]
         self.pedestrian_holds = 0
-        self.crossing_zones = crossing_zones(context.movements, junction_crossings(context.net_file,
-                                                                                  context.movements.junctions),
-                                             longest, context.touch_width)
+        self.crossing_zones = crossing_zones(context.movements, movement_crossings(context.movements), longest,
+                                             context.touch_width)
         shift = max(1, int(round(context.control_period / game.dt)))
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt, game.a_max, context.model.v_max)
         lane_costs = LaneChangeCosts(context.movements, context.model)

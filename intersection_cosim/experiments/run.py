@@ -33,7 +33,7 @@ from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net, sumo_version
 from intersection_cosim.network.conflicts import movement_conflicts
-from intersection_cosim.network.crossings import junction_crossings
+from intersection_cosim.network.crossings import movement_crossings
 from intersection_cosim.network.junction_net import junction_table, load_movements
 from intersection_cosim.network.outline import junction_centre
 from intersection_cosim.network.path_id import PathId
@@ -44,7 +44,8 @@ from intersection_cosim.network.xml_files import copy_plain
 from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE,
                                                RUN_MARKER, SSM_FILE, STEP_COLUMNS, STEPS_FILE, TRAJECTORIES_FILE,
-                                               TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE)
+                                               TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE, WALKER_COLUMNS,
+                                               WALKERS_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
 from intersection_cosim.scenario.load import default_exit_lane, draw_drivers, generate_flow_vehicles
@@ -164,6 +165,7 @@ class _Records(NamedTuple):
     game_steps: dict[tuple[str, str], int]  # (id, id) sorted -> control steps the pair played a game
     ended: list  # why the run ended early: at most one experiments.deadlock.Deadlock or
     #              experiments.memory_guard.MemoryLimit
+    walker_rows: list[tuple]  # WALKER_COLUMNS, one per person near a crossing and control step
 
 
 class _Simulated(NamedTuple):
@@ -194,7 +196,7 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     simulated = _simulate(scn, folder, inputs, gui)
     tables = _result_tables(scn, folder, inputs, simulated)
     diagnostics = inputs.controller.diagnostics()
-    _write_tables(folder, tables, simulated.records.game_rows, diagnostics)
+    _write_tables(folder, tables, simulated.records, diagnostics)
     summary = _summary(scn, simulated.infos, tables, diagnostics, gui)
     ended = simulated.records.ended
     summary["ended_early"] = ended[0]._asdict() if ended else None
@@ -342,8 +344,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     generic = {} if scn.network.generated else dict(
         lane_change_mode=LANE_CHANGE_MODE_STRATEGIC, adopt_controlled=controller.controls_vehicles,
         control_range=scn.network.control_range,
-        crossings=junction_crossings(inputs.movements.net_file, inputs.movements.junctions)
-        if controller.controls_vehicles else {})
+        crossings=movement_crossings(inputs.movements))
     sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,
                          exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO,
                          **generic)
@@ -387,7 +388,7 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
     With a ``channel`` (v2x.Channel) the vehicles send their states when it says so, the
     controller decides on the World the channel shows it, and its decisions reach SUMO when the
     channel delivers them (checked every step); the records keep SUMO's state."""
-    records = _Records([], [], [], {}, [])
+    records = _Records([], [], [], {}, [], [])
     sim.advance()  # time 0: insert the vehicles that depart at once
     k = 0
     while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
@@ -437,6 +438,8 @@ def _record_step(records: _Records, world: World, step) -> None:
         records.traj_rows.append((world.time, vid, world.x[i], world.y[i], world.v[i], world.a[i],
                                   world.heading[i], world.lanes[i], world.role[i],
                                   world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
+    records.walker_rows.extend((world.time, w.id, w.crossing, w.position, w.direction, w.speed, w.x, w.y)
+                               for w in world.walkers)
     records.step_rows.extend(dataclasses.astuple(record) for record in step.records)
     kept = set(decisions.kept)
     for (a, b), junction in zip(decisions.pairs, step.pair_junctions):
@@ -473,8 +476,9 @@ def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str
     return out
 
 
-def _write_tables(folder: Path, tables: _Tables, game_rows: list[tuple], diagnostics: Diagnostics) -> None:
-    """Write the run's CSVs into ``folder`` (convergence.csv only for a controller that solves games)."""
+def _write_tables(folder: Path, tables: _Tables, records: _Records, diagnostics: Diagnostics) -> None:
+    """Write the run's CSVs into ``folder`` (convergence.csv only for a controller that solves games,
+    walkers.csv only for a run with people at its crossings)."""
     tables.traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
     if diagnostics.convergence is not None:
         rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
@@ -482,7 +486,10 @@ def _write_tables(folder: Path, tables: _Tables, game_rows: list[tuple], diagnos
         pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / CONVERGENCE_FILE, index=False,
                                                                float_format="%.6g")
     tables.steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
-    pd.DataFrame(game_rows, columns=GAME_COLUMNS).to_csv(folder / GAMES_FILE, index=False, float_format="%.4f")
+    pd.DataFrame(records.game_rows, columns=GAME_COLUMNS).to_csv(folder / GAMES_FILE, index=False, float_format="%.4f")
+    if records.walker_rows:
+        pd.DataFrame(records.walker_rows, columns=WALKER_COLUMNS).to_csv(folder / WALKERS_FILE, index=False,
+                                                                         float_format="%.4f")
     tables.vehicles.to_csv(folder / VEHICLES_FILE, index=False, float_format="%.4f")
     tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
 

@@ -312,6 +312,23 @@ def conflict_zone(a: MovementPath, b: MovementPath, length: float = 4.5, width: 
     return float(s_front[k[0]]), float(s_front[k[-1]])
 
 
+def area_zone(path: MovementPath, area: cKDTree, length: float, width: float,
+              span: tuple[float, float] | None = None) -> tuple[float, float] | None:
+    """[m] ``(zone_in, zone_out)``: the front arc lengths over ``span`` [m] of ``path`` (default
+    all of it, approach included, not only the junction) between which a body ``length`` x
+    ``width`` [m] on it comes within ``_ZONE_MARGIN`` of a point of ``area`` (e.g. a zebra
+    crossing's grid, network/crossings.py), or None if it never does."""
+    lo, hi = span if span is not None else (0.0, path.length)
+    s_front = np.arange(max(lo, min(length, path.length)), min(hi, path.length), _ZONE_STEP)
+    if not len(s_front):
+        return None
+    hit = _hits(path, s_front, length, width, area)
+    if not hit.any():
+        return None
+    k = np.flatnonzero(hit)
+    return float(s_front[k[0]]), float(s_front[k[-1]])
+
+
 def _hits(a: MovementPath, s_front: np.ndarray, length: float, width: float, swept_b: cKDTree) -> np.ndarray:
     """(S,) bool: whether the body on ``a`` at each front in ``s_front`` overlaps ``swept_b``."""
     pts = _body_points(a, s_front, length, width, outline=True)

@@ -6,7 +6,8 @@ one kerb to the other, and its width the crossing's. A vehicle on a movement pat
 crossing where its body overlaps the crossing's area: the crossing over its approach road just
 after the stop line, the one over its exit road just before it leaves the junction.
 
-:func:`junction_crossings` reads the crossings of a net's junctions (sumolib);
+:func:`junction_crossings` reads the crossings of a net's junctions (sumolib), :func:`path_junctions`
+names the junctions whose crossings matter (the managed ones and those the approaches pass);
 :func:`crossing_zones` maps them onto the movement paths: per path, the front arc lengths over
 which the body overlaps each crossing (the zone the safety filter keeps a vehicle out of while a
 pedestrian is in its way) and the stretch of the crossing's axis that the vehicle's body covers.
@@ -23,7 +24,7 @@ import numpy as np
 import sumolib
 from scipy.spatial import cKDTree
 
-from intersection_cosim.network.conflicts import conflict_zone
+from intersection_cosim.network.conflicts import area_zone
 from intersection_cosim.network.movements import Movements
 from intersection_cosim.network.paths import MovementPath
 
@@ -111,7 +112,13 @@ def path_crossing_zone(path: MovementPath, crossing: PedestrianCrossing, length:
                        area: cKDTree | None = None) -> CrossingZone | None:
     """Where a body ``length`` x ``width`` [m] on ``path`` overlaps ``crossing`` (its body
     outline within a grid step of the crossing's area), or None where it never does."""
-    zone = conflict_zone(path, path, length, width, swept_b=area if area is not None else crossing_area(crossing))
+    middle = (np.array(crossing.start) + np.array(crossing.end)) / 2
+    reach = math.hypot(crossing.length, crossing.width) / 2 + length + width  # [m] farthest a touching front can be
+    near = path.s[np.hypot(*(path.xy - middle).T) <= reach]
+    if not len(near):
+        return None
+    zone = area_zone(path, area if area is not None else crossing_area(crossing), length, width,
+                     (float(near.min()) - 1.0, float(near.max()) + 1.0))
     if zone is None:
         return None
     s = np.linspace(max(zone[0] - length, 0.0), zone[1], 50)  # [m] the body's stretch of centre line
@@ -122,15 +129,30 @@ def path_crossing_zone(path: MovementPath, crossing: PedestrianCrossing, length:
     return CrossingZone(crossing.lane, zone[0], zone[1], (lo, hi))
 
 
+def path_junctions(movements: Movements) -> tuple[str, ...]:
+    """The junctions the movement paths run through: the managed ones and those upstream on the
+    approaches within the control range (their internal lanes are on the paths)."""
+    inside = {lane[1:].rsplit("_", 2)[0] for path in movements.paths.values() for lane in path.lanes
+              if lane.startswith(":")}
+    return tuple(sorted(inside | set(movements.junctions)))
+
+
+def movement_crossings(movements: Movements) -> dict[str, PedestrianCrossing]:
+    """The crossings that the movement paths may run over (of :func:`path_junctions`), by lane id."""
+    return junction_crossings(movements.net_file, path_junctions(movements))
+
+
 def crossing_zones(movements: Movements, crossings: Mapping[str, PedestrianCrossing], length: float,
                    width: float) -> dict[str, tuple[CrossingZone, ...]]:
     """Per movement path id, the crossings it runs over (in path order; only paths that run over
-    one), for a body ``length`` x ``width`` [m]."""
+    one), for a body ``length`` x ``width`` [m]: those of its managed junction and of any junction
+    its approach passes on the way."""
     areas = {lane: crossing_area(c) for lane, c in crossings.items()}
     out = {}
     for pid, path in movements.paths.items():
+        junctions = {lane[1:].rsplit("_", 2)[0] for lane in path.lanes if lane.startswith(":")} | {path.junction}
         zones = [z for lane, c in crossings.items()
-                 if c.junction == path.junction and (z := path_crossing_zone(path, c, length, width, areas[lane]))]
+                 if c.junction in junctions and (z := path_crossing_zone(path, c, length, width, areas[lane]))]
         if zones:
             out[pid] = tuple(sorted(zones, key=lambda z: z.zone_in))
     return out

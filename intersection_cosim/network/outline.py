@@ -1,4 +1,5 @@
-"""The net's drawable geometry, read with sumolib: lane and junction outlines, internal lane centre lines.
+"""The net's drawable geometry, read with sumolib: lane, junction and zebra-crossing outlines, internal
+lane centre lines.
 
 Everything is in the net's frame, the frame of a run's trajectories (x east, y north, metres;
 for the generated paper net the paper frame, its junction centre at the origin).
@@ -6,7 +7,7 @@ for the generated paper net the paper frame, its junction centre at the origin).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ class NetOutline:
     lanes: list[np.ndarray]  # [m] outline polygon (n x 2) of every normal lane
     junctions: list[np.ndarray]  # [m] outline polygon of every junction with an area
     internal: list[np.ndarray]  # [m] centre line (n x 2) of every junction-internal lane (the connections)
+    crossings: list[np.ndarray] = field(default_factory=list)  # [m] outline of every zebra crossing
 
 
 def lane_polygon(shape: np.ndarray, width: float) -> np.ndarray:
@@ -50,14 +52,16 @@ def junction_outlines(net_file: str | Path, junctions) -> dict[str, tuple[tuple[
 def read_outline(net_file: str | Path) -> NetOutline:
     """The outline of ``net_file``'s lanes and junctions (sumolib, with internal lanes)."""
     net = sumolib.net.readNet(str(net_file), withInternal=True)
-    lanes, internal = [], []
+    lanes, internal, crossings = [], [], []
     for edge in net.getEdges(withInternal=True):
         for lane in edge.getLanes():
             shape = np.asarray([p[:2] for p in lane.getShape()], float)
             if edge.getFunction() == "internal":
                 internal.append(shape)
-            else:
+            elif edge.getFunction() == "crossing":
+                crossings.append(lane_polygon(shape, lane.getWidth()))
+            elif edge.getFunction() != "walkingarea":  # (a walking area's shape is its outline, not a centre line)
                 lanes.append(lane_polygon(shape, lane.getWidth()))
     junctions = [np.asarray([p[:2] for p in node.getShape()], float) for node in net.getNodes()
                  if len(node.getShape()) >= 3]
-    return NetOutline(lanes=lanes, junctions=junctions, internal=internal)
+    return NetOutline(lanes=lanes, junctions=junctions, internal=internal, crossings=crossings)

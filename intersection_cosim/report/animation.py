@@ -32,7 +32,7 @@ from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.outline import NetOutline, junction_centre, read_outline
 from intersection_cosim.report.animation_frames import FrameDrawer
 from intersection_cosim.results.layout import (CONVERGENCE_FILE, GAMES_FILE, RUN_MARKER, TRAJECTORIES_FILE,
-                                               VEHICLES_FILE)
+                                               VEHICLES_FILE, WALKERS_FILE)
 
 RUN_FILES = (RUN_MARKER, TRAJECTORIES_FILE, VEHICLES_FILE, NET_FILE)  # a run folder has these
 ANIMATION_FILE = "animation.gif"  # default output, in the run folder (the run report links it)
@@ -66,6 +66,7 @@ class RunRecord:
     title: str
     centre: tuple[float, float] = (0.0, 0.0)  # [m] the view's centre: the (first) managed junction
     reach: float | None = None  # [m] how far out the controller drives (a net file's control range; None: the settings')
+    walkers: pd.DataFrame | None = None  # time [s], x, y [m]: the people at the crossings (walkers.csv), None: none
 
 
 def check_run_dir(run_dir: str | Path) -> Path:
@@ -109,11 +110,12 @@ def read_run(run_dir: Path, settings: AnimationSettings) -> RunRecord:
     on_file = bool(network.get("file"))
     centre = junction_centre(run_dir / NET_FILE, network["junctions"][0]) if on_file else (0.0, 0.0)
     reach = float(network.get("control_range", settings.max_half_view)) if on_file else None
+    walkers = pd.read_csv(run_dir / WALKERS_FILE) if (run_dir / WALKERS_FILE).is_file() else None
     return RunRecord(traj=traj, kappa=dict(zip(vehicles["vehicle"], vehicles["kappa"].astype(float))), games=games,
                      outline=read_outline(run_dir / NET_FILE),
                      length=float(model.get("vehicle_length", settings.default_length)),
                      width=float(model.get("vehicle_width", settings.default_width)), title=title, centre=centre,
-                     reach=reach)
+                     reach=reach, walkers=walkers)
 
 
 def frame_times(traj: pd.DataFrame, settings: AnimationSettings) -> np.ndarray:

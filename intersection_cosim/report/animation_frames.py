@@ -23,6 +23,8 @@ DPI = 100  # [px per inch] of the frames
 ROAD = "#4d4d4d"  # asphalt
 MARKING = "#f2f2f2"  # lane boundaries
 PATH_LINE = "#9a9a9a"  # the junction's internal lanes (the movements' paths)
+PERSON = "#d62728"  # a person at a crossing
+PERSON_SIZE = 28.0  # [pt^2] its marker
 TIME_DECIMALS = 4  # trajectories.csv and games.csv write times to 4 decimals
 
 
@@ -58,6 +60,8 @@ class FrameDrawer:
         self._by_time = {round(float(t), TIME_DECIMALS): g for t, g in run.traj.groupby("time")}
         self._games = {round(float(t), TIME_DECIMALS): list(zip(g["vehicle_a"], g["vehicle_b"]))
                        for t, g in run.games.groupby("time")}
+        self._people = ({} if run.walkers is None else  # [m] where the people are, per time
+                        {round(float(t), TIME_DECIMALS): g[["x", "y"]].to_numpy(float) for t, g in run.walkers.groupby("time")})
         self._dynamic: list = []
         self._static(self._half_view(settings))
 
@@ -86,6 +90,9 @@ class FrameDrawer:
         bar.set_label("aggressiveness $\\kappa$ (commanded)", fontsize=9)
         handles = [Patch(facecolor=_rgb(UNCONTROLLED), edgecolor="black", label="SUMO drives"),
                    Line2D([], [], color=_rgb(GAME), lw=2.5, label="game this step")]
+        if self._people:
+            handles.append(Line2D([], [], color="none", marker="o", markerfacecolor=PERSON, markeredgecolor="white",
+                                  markersize=6, label="person at a crossing"))
         self.fig.legend(handles=handles, loc="lower right", bbox_to_anchor=(0.995, 0.12), fontsize=8, frameon=False)
         self.time_text = ax.text(0.02, 0.98, "", transform=ax.transAxes, fontsize=13, va="top", weight="bold",
                                  bbox=dict(facecolor="white", alpha=0.85, edgecolor="none"), zorder=10)
@@ -106,6 +113,10 @@ class FrameDrawer:
                 (line,) = self.ax.plot(*zip(centres[a], centres[b]), color=_rgb(GAME), lw=2.5, zorder=4,
                                        solid_capstyle="round")
                 self._dynamic.append(line)
+        people = self._people.get(key)
+        if people is not None and len(people):
+            self._dynamic.append(self.ax.scatter(people[:, 0], people[:, 1], s=PERSON_SIZE, c=PERSON,
+                                                 edgecolors="white", linewidths=0.6, zorder=7))
         self.time_text.set_text(f"t = {t:6.2f} s")
         self.canvas.draw()
         return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()

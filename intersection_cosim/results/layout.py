@@ -9,6 +9,8 @@ A run folder (written atomically by ``experiments.run``)::
     games.csv           GAME_COLUMNS, one row per game played (empty for controllers without games)
     vehicles.csv        one row per vehicle (``results.metrics.vehicle_table``)
     pairs.csv           one row per conflicting pair (``results.metrics.pair_table``)
+    walkers.csv         WALKER_COLUMNS, one row per person on or walking onto a managed crossing and
+                        control step (only runs that had any)
     tripinfo.xml, ssm.xml, collisions.xml   SUMO's own outputs (``results.sumo_outputs``)
 
 A sweep folder (written by ``experiments.sweep``)::
@@ -31,6 +33,7 @@ CONVERGENCE_FILE = "convergence.csv"
 GAMES_FILE = "games.csv"
 VEHICLES_FILE = "vehicles.csv"
 PAIRS_FILE = "pairs.csv"
+WALKERS_FILE = "walkers.csv"
 TRIPINFO_FILE = "tripinfo.xml"
 SSM_FILE = "ssm.xml"
 COLLISIONS_FILE = "collisions.xml"
@@ -39,6 +42,9 @@ COLLISIONS_FILE = "collisions.xml"
 # s [m] along the path, accel_cmd [m/s^2] (NaN: not commanded)
 TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role", "path", "s",
                       "accel_cmd"]
+# time [s], person, crossing (SUMO lane id), position [m] on the crossing's axis, direction (+1 / -1
+# along it), speed [m/s], x, y [m] (the net's frame)
+WALKER_COLUMNS = ["time", "person", "crossing", "position", "direction", "speed", "x", "y"]
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
 GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b", "junction", "solved"]  # time [s] of the step, the pair that
 # played, where, and whether its game was solved (False: it kept its last equilibrium, control/game_reuse.py)

@@ -386,7 +386,8 @@ class SumoSimulation:
                 angle = math.radians(person.getAngle(pid))  # navigational: 0 north, clockwise
                 d = crossing.direction
                 sign = 1 if math.sin(angle) * d[0] + math.cos(angle) * d[1] >= 0.0 else -1
-                out.append(Walker(pid, lane, person.getLanePosition(pid), sign, person.getSpeed(pid)))
+                out.append(Walker(pid, lane, person.getLanePosition(pid), sign, person.getSpeed(pid),
+                                  *person.getPosition(pid)))
                 continue
             near = self._walking_areas.get(lane)
             if not near or person.getSpeed(pid) < WALK_SPEED_MIN:
@@ -394,9 +395,10 @@ class SumoSimulation:
             nxt = person.getNextEdge(pid)
             for crossing in near:
                 if crossing.edge == nxt:
-                    pos = crossing.along(*person.getPosition(pid))
+                    x, y = person.getPosition(pid)
+                    pos = crossing.along(x, y)
                     sign = 1 if pos < crossing.length / 2 else -1
-                    out.append(Walker(pid, crossing.lane, pos, sign, person.getSpeed(pid)))
+                    out.append(Walker(pid, crossing.lane, pos, sign, person.getSpeed(pid), x, y))
         return tuple(out)
 
     def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:

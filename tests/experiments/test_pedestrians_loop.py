@@ -6,6 +6,7 @@ type "crossing")."""
 
 from __future__ import annotations
 
+import pandas as pd
 import pytest
 
 from intersection_cosim.experiments.run import run_scenario
@@ -38,6 +39,10 @@ def test_the_game_controllers_vehicles_yield_to_people_on_the_crossings(tmp_path
     assert c["arrived"] == c["departed"] == 16
     assert c["collisions"] == 0 and c["pedestrian_collisions"] == 0
     assert c["pedestrian_holds"] > 50  # [-] vehicle-steps held back for a person
+    people = pd.read_csv(tmp_path / "yield" / "walkers.csv")  # what the animation draws
+    assert people["person"].nunique() >= 8 and people["crossing"].str.startswith(":38_c").all()
+    on = people[people["position"].between(0.0, 20.0)]
+    assert len(on) > 100 and on["speed"].between(0.0, 2.0).all()  # [m/s] walking over the crossings
     sumo = _run(tmp_path, "sumo", "sumo-priority")["counts"]  # SUMO's drivers, the reference
     assert sumo["collisions"] == 0 and sumo["arrived"] == 16 and sumo["pedestrian_holds"] is None
     # the same run with the rule switched off: a vehicle drives into a person at 10 m/s

@@ -55,3 +55,27 @@ def test_the_generated_paper_net_has_no_crossings(net_file):
     movements = paper_movements(net_file)
     assert junction_crossings(net_file, movements.junctions) == {}
     assert crossing_zones(movements, {}, 5.0, 1.8) == {}
+
+
+def test_the_outline_draws_the_crossings_apart_from_the_lanes_and_leaves_out_the_walking_areas():
+    import sumolib
+
+    from intersection_cosim.network.outline import read_outline
+
+    net = sumolib.net.readNet(NET, withInternal=True)
+    functions = [e.getFunction() for e in net.getEdges(withInternal=True)]
+    outline = read_outline(NET)
+    assert len(outline.crossings) == functions.count("crossing") >= 8
+    normal = sum(len(e.getLanes()) for e in net.getEdges(withInternal=True) if e.getFunction() in ("", "normal"))
+    assert len(outline.lanes) == normal  # no walking area drawn as a lane
+
+
+def test_the_crossings_that_count_are_those_of_every_junction_the_approaches_pass(fokr):
+    """The approaches run through upstream junctions within the control range (their internal
+    lanes are on the paths); a zebra crossing there would count too. Here only 38 has any."""
+    from intersection_cosim.network.crossings import movement_crossings, path_junctions
+
+    movements, crossings, _ = fokr
+    passed = path_junctions(movements)
+    assert "38" in passed and {"J4", "J9", "J12", "J3"} <= set(passed)
+    assert movement_crossings(movements) == crossings
