@@ -291,7 +291,7 @@ class GameController:
             games = frozenset() if decisions.fallback else frozenset(
                 (min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())
             held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
-                                     self._holds(world), games)
+                                     self._holds(world, relations), games)
             self._held = self._held | held
             if self.settings.policy.filter_event:
                 self._events |= self.safety.events
@@ -314,16 +314,26 @@ class GameController:
             return all(v in index and float(world.v[index[v]]) >= slow for v in e)
         return {e for e in self._events if holds(e)}
 
-    def _holds(self, world: World) -> dict[str, float]:
+    def _holds(self, world: World, relations: Relations) -> dict[str, float]:
         """[m/s^2] the caps of the exit-room rule, of the pedestrians at the crossings
         (control/pedestrians.py) and, with ModelSettings.lane_speed_limits, of the lane speed
         limits (control/speed_limits.py), the lowest per vehicle."""
         holds = self._exit_holds(world)
         period = self.ctx.control_period
         game, zones = self.settings.game, self.crossing_zones if self.settings.safety.yield_to_pedestrians else {}
-        others = [pedestrian_holds(world, self.ctx.movements, zones, self.memory.options,
-                                   self.memory.plans, self.settings.safety, self.model.tcp_speed_floor,
-                                   lambda k: world.accel_limits(k, game.a_min, game.a_max), game.comfort_brake, period)]
+
+        def leader_of(k: int, exit_lane: str) -> tuple[float, float] | None:
+            row = relations.row_of.get((k, exit_lane))
+            lead = None if row is None else relations.leaders.get(row)
+            if lead is None:
+                return None
+            rear = float(world.s[lead.vehicle]) + lead.offset - world.length_of(lead.vehicle, self.model.vehicle_length)
+            return rear, float(world.v[lead.vehicle])  # [m] in k's path, [m/s]
+
+        others = [pedestrian_holds(world, self.ctx.movements, zones, self.memory.options, self.memory.plans,
+                                   self.settings.safety, self.model.tcp_speed_floor,
+                                   lambda k: world.accel_limits(k, game.a_min, game.a_max), game.comfort_brake, period,
+                                   leader_of)]
         self.pedestrian_holds += len(others[0])
         if self.model.lane_speed_limits:
             others.append(lane_speed_holds(world, self.ctx.movements, self.memory.options, self.model.lane_speed_decel,

@@ -37,11 +37,12 @@ def test_a_walkers_window_runs_from_reaching_the_stretch_fast_to_leaving_it_at_i
     assert standing == (0.0, pytest.approx(2.0 / 0.5))  # walks on at pedestrian_speed_low
 
 
-def _holds(fokr, s, v, walkers):
+def _holds(fokr, s, v, walkers, lead=None):
     movements, zones = fokr
     world = make_world(movements.paths, 10.0, [("A", PATH, s, v)])
     world.walkers = tuple(walkers)
-    return pedestrian_holds(world, movements, zones, {}, {}, ST, 0.1, lambda k: (-4.0, 2.5), 2.0, 0.1)
+    return pedestrian_holds(world, movements, zones, {}, {}, ST, 0.1, lambda k: (-4.0, 2.5), 2.0, 0.1,
+                            lambda k, exit_lane: lead)
 
 
 def test_a_vehicle_waits_at_its_stop_line_for_a_person_on_its_crossing_braking_from_the_last_moment(fokr):
@@ -83,3 +84,17 @@ def test_a_person_on_the_road_out_holds_the_vehicle_at_its_stop_line_not_in_the_
     assert cap == pytest.approx(-25.0 / (2 * (6.0 - ST.safety_margin)))  # [m/s^2] at its stop line
     inside = _holds(fokr, c_out.zone_in - 7.0, 5.0, [person])["A"]  # in the junction: before the crossing
     assert inside == pytest.approx(-25.0 / (2 * (7.0 - ST.pedestrian_margin)))
+
+
+def test_a_vehicle_does_not_enter_a_crossing_it_could_not_leave_while_people_walk_there(fokr):
+    """Its leader stands just past the crossing: it would have to stop on it, in the people's way."""
+    movements, zones = fokr
+    path, (c_in, _) = movements.paths[PATH], zones[PATH]
+    far = Walker("p", c_in.lane, c_in.span[0] - 12.0, +1, 1.2)  # no conflict by the windows alone
+    s = path.s_stop - 6.0  # [m] at 5 m/s: it must brake now to stop at its stop line
+    assert _holds(fokr, s, 5.0, [far]) == {}
+    blocked = _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 0.0))  # rear 0.5 m past the crossing
+    assert blocked["A"] == pytest.approx(-25.0 / (2 * (6.0 - ST.safety_margin)))
+    assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 3.0)) == {}  # the leader drives on
+    assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 5.0, 0.0)) == {}  # room behind the crossing
+    assert _holds(fokr, s, 5.0, [], lead=(c_in.zone_out + 0.5, 0.0)) == {}  # nobody there
