@@ -95,12 +95,13 @@ def pedestrian_holds(world: World, movements: Movements, zones: Mapping[str, tup
             continue
         pid = world.path_ids[k]
         exits = set(world.exit_choices.get(vid, ())) | {options.get(vid, movements.paths[pid].exit_lane)}
+        limits = limits_of(k)  # [m/s^2]
         for exit_lane in sorted(exits):
             p = movements.siblings.get((pid, exit_lane), pid)
             lead = leader_of(k, exit_lane) if leader_of is not None else None
             for zone in zones.get(p, ()):
                 a = _zone_hold(world, k, zone, by_crossing.get(zone.lane, ()), plans.get(vid), lead,
-                               movements.paths[p].s_stop, settings, speed_floor, limits_of(k), brake_from, period)
+                               movements.paths[p].s_stop, settings, speed_floor, limits, brake_from, period)
                 if a is not None and a < math.inf:
                     out[vid] = min(a, out.get(vid, math.inf))
     return out
