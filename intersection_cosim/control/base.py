@@ -24,7 +24,7 @@ class Walker(NamedTuple):
 
     id: str
     crossing: str  # SUMO lane id of the crossing
-    position: float  # [m] on the crossing's axis (its lane position; < 0 or > its length: still before it)
+    position: float  # [m] on the crossing's axis, from its start (< 0 or > its length: still before it)
     direction: int  # +1 walking towards the axis' end, -1 towards its start
     speed: float  # [m/s]
     x: float = math.nan  # [m] where it is, in the net's frame

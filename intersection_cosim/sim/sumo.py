@@ -121,8 +121,8 @@ class SumoSimulation:
     taken: set[str] = field(default_factory=set)  # vehicles whose speed the controller commands
     bodies: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # per vehicle, read from
     #   its vType at departure: length [m], width [m], accel [m/s^2], decel [m/s^2]
-    crossings: Mapping[str, PedestrianCrossing] = field(default_factory=dict)  # the managed junctions'
-    #   pedestrian crossings by lane id (network/crossings.py); none: no person is read
+    crossings: Mapping[str, PedestrianCrossing] = field(default_factory=dict)  # the crossings the paths run
+    #   over, by lane id (network/crossings.py, movement_crossings); none: no person is read
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
     _walking_areas: dict[str, list[PedestrianCrossing]] = field(default_factory=dict)  # lane -> crossings at it
     _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
@@ -374,8 +374,9 @@ class SumoSimulation:
     def walkers(self) -> tuple[Walker, ...]:
         """The persons on a managed junction's crossing, and those on a walking area at one that
         walk (at least ``WALK_SPEED_MIN``) with that crossing as their next edge; () without
-        crossings. On a walking area a person's axis position is its position projected onto the
-        crossing's axis, so it lies before the axis' start or past its end."""
+        crossings. A person's axis position is its position projected onto the crossing's axis
+        (in the axis' own metres, as the paths' crossing stretches are, whatever SUMO's length of
+        the crossing lane), so on a walking area it lies before the axis' start or past its end."""
         if not self.crossings:
             return ()
         person, out = self.api.person, []
@@ -386,8 +387,8 @@ class SumoSimulation:
                 angle = math.radians(person.getAngle(pid))  # navigational: 0 north, clockwise
                 d = crossing.direction
                 sign = 1 if math.sin(angle) * d[0] + math.cos(angle) * d[1] >= 0.0 else -1
-                out.append(Walker(pid, lane, person.getLanePosition(pid), sign, person.getSpeed(pid),
-                                  *person.getPosition(pid)))
+                x, y = person.getPosition(pid)
+                out.append(Walker(pid, lane, crossing.along(x, y), sign, person.getSpeed(pid), x, y))
                 continue
             near = self._walking_areas.get(lane)
             if not near or person.getSpeed(pid) < WALK_SPEED_MIN:
