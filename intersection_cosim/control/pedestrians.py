@@ -7,8 +7,9 @@ out of it while a pedestrian is on, or walks onto, the stretch of the crossing i
 cover, within ``pedestrian_time_gap`` of when the vehicle would be there:
 
 * the vehicle's time over the crossing is its plan's (from its front reaching the zone to its
-  front leaving it: safety.occupancy), or where its plan does not reach the crossing, from its
-  earliest arrival (at full acceleration) to its leaving at its present speed;
+  front leaving it: safety.occupancy); where its plan does not reach the crossing, from its
+  earliest arrival (at full acceleration); a leaving beyond the plan's end is reckoned on from
+  there, at its speed or, if sooner, at full acceleration (:func:`vehicle_window`);
 * a pedestrian's runs from its reaching the vehicle's stretch at its speed, or at
   ``pedestrian_speed_high`` if it is slower (a person may speed up), to its leaving it at its
   speed, at least ``pedestrian_speed_low`` (a standing person walks on at that speed); one that
@@ -61,17 +62,37 @@ def walker_window(walker: Walker, span: tuple[float, float], settings: SafetySet
 
 def vehicle_window(world: World, k: int, zone: CrossingZone, plan: Plan | None, speed_floor: float,
                    accel: float) -> tuple[float, float]:
-    """[s] (from, to): when vehicle k's front is in ``zone`` by its ``plan``; where the plan does
-    not reach it, from the earliest (at full acceleration ``accel`` [m/s^2]) to leaving it at its
-    present speed (at least ``speed_floor`` [m/s])."""
+    """[s] (from, to): when vehicle k's front is in ``zone`` by its ``plan``. Where the plan does
+    not reach it (a vehicle held before the crossing keeps a plan that stops), from the earliest
+    (at full acceleration ``accel`` [m/s^2]) from its present state; where the plan ends inside
+    it, the leaving is from the plan's end. A vehicle leaves at its speed (at least
+    ``speed_floor`` [m/s]) or, if sooner, at full acceleration: one that starts from standing
+    drives off, it does not creep over at the floor speed (at 0.1 m/s a crossing's 12 m would
+    take two minutes, in which someone always walks onto a busy crossing, and it stood for good).
+    """
     if plan is not None:
         t_in, t_out = occupancy(plan, zone.zone_in, zone.zone_out)
         if math.isfinite(t_in):
-            return t_in, t_out
+            if math.isfinite(t_out):
+                return t_in, t_out
+            rest = max(zone.zone_out - float(plan.positions[-1]), 0.0)  # [m] beyond the horizon
+            return t_in, plan.steps * plan.dt + _leave_time(rest, float(plan.speeds[-1]), accel, speed_floor)
     s, v = float(world.s[k]), float(world.v[k])
-    d = max(zone.zone_in - s, 0.0)  # [m]
-    t_in = (math.sqrt(v * v + 2.0 * accel * d) - v) / accel if accel > 0 else d / max(v, speed_floor)
-    return t_in, max(zone.zone_out - s, 0.0) / max(v, speed_floor)
+    d_in, d_out = max(zone.zone_in - s, 0.0), max(zone.zone_out - s, 0.0)  # [m]
+    t_in = _time_to(d_in, v, accel) if accel > 0 else d_in / max(v, speed_floor)
+    return t_in, _leave_time(d_out, v, accel, speed_floor)
+
+
+def _leave_time(d: float, v: float, accel: float, speed_floor: float) -> float:
+    """[s] to cover ``d`` [m] from speed ``v`` [m/s]: at that speed (at least ``speed_floor``) or,
+    if sooner, at constant acceleration ``accel`` [m/s^2]."""
+    at_speed = d / max(v, speed_floor)
+    return min(at_speed, _time_to(d, v, accel)) if accel > 0 else at_speed
+
+
+def _time_to(d: float, v: float, accel: float) -> float:
+    """[s] to cover ``d`` [m] from speed ``v`` [m/s] at constant acceleration ``accel`` [m/s^2] > 0."""
+    return (math.sqrt(v * v + 2.0 * accel * d) - v) / accel
 
 
 def pedestrian_holds(world: World, movements: Movements, zones: Mapping[str, tuple[CrossingZone, ...]],

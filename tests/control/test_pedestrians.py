@@ -3,12 +3,14 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import sumo
 
 from intersection_cosim.control.base import Walker
-from intersection_cosim.control.pedestrians import pedestrian_holds, walker_window
+from intersection_cosim.control.pedestrians import pedestrian_holds, vehicle_window, walker_window
 from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.games.problem import Plan
 from intersection_cosim.network.crossings import crossing_zones, junction_crossings
 from intersection_cosim.network.junction_net import load_movements
 from tests.control.conftest import make_world
@@ -98,3 +100,36 @@ def test_a_vehicle_does_not_enter_a_crossing_it_could_not_leave_while_people_wal
     assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 3.0)) == {}  # the leader drives on
     assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 5.0, 0.0)) == {}  # room behind the crossing
     assert _holds(fokr, s, 5.0, [], lead=(c_in.zone_out + 0.5, 0.0)) == {}  # nobody there
+
+
+def test_a_standing_vehicle_reckons_to_drive_off_not_to_creep_over_the_crossing(fokr):
+    """Standing at its stop point with no plan over the crossing, a vehicle leaves the crossing
+    as at full acceleration, not at the 0.1 m/s floor speed (two minutes for the crossing, in
+    which someone always walks onto a busy one: it stood for good)."""
+    movements, zones = fokr
+    path, (c_in, _) = movements.paths[PATH], zones[PATH]
+    s = path.s_stop - ST.safety_margin  # [m] standing at its stop point
+    world = make_world(movements.paths, 10.0, [("A", PATH, s, 0.0)])
+    t_in, t_out = vehicle_window(world, 0, c_in, None, 0.1, 2.5)
+    d_in, d_out = c_in.zone_in - s, c_in.zone_out - s  # [m]
+    assert t_in == pytest.approx((2 * d_in / 2.5) ** 0.5) and t_out == pytest.approx((2 * d_out / 2.5) ** 0.5)
+    assert t_out < 5.0  # [s] the crossing is ~10 m long
+    # a person 14 m before its stretch (9 s away at 1.5 m/s) does not hold it; one 4 m away does
+    coming = Walker("p", c_in.lane, c_in.span[0] - 15.0, +1, 1.2)
+    assert _holds(fokr, s, 0.0, [coming]) == {}
+    assert "A" in _holds(fokr, s, 0.0, [coming._replace(position=c_in.span[0] - 5.0)])
+
+
+def test_a_plan_that_ends_on_the_crossing_leaves_it_from_the_plans_end(fokr):
+    """A slow start whose horizon ends inside the crossing: the leaving is reckoned from the plan's
+    last state, not taken as never (which held the vehicle against every person to come)."""
+    movements, zones = fokr
+    path, (c_in, _) = movements.paths[PATH], zones[PATH]
+    s = c_in.zone_in - 1.0  # [m]
+    world = make_world(movements.paths, 10.0, [("A", PATH, s, 0.0)])
+    plan = Plan.from_accelerations(s, 0.0, np.full(30, 1.0), 0.1)  # 1 m/s^2 for 3 s: 4.5 m, 3 m/s
+    t_in, t_out = vehicle_window(world, 0, c_in, plan, 0.1, 2.5)
+    rest, v = c_in.zone_out - plan.positions[-1], 3.0  # [m], [m/s] at the horizon's end
+    assert t_in == pytest.approx((2 * 1.0 / 1.0) ** 0.5, abs=0.1)
+    assert t_out == pytest.approx(3.0 + ((v * v + 2 * 2.5 * rest) ** 0.5 - v) / 2.5)
+    assert t_out < 6.0  # [s]
