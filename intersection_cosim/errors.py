@@ -22,3 +22,14 @@ class InputError(Exception):
         value = repr(self.value) if not isinstance(self.value, str) else repr(self.value)
         text = f"{self.source}: {self.field} = {value}: {self.problem}"
         return " ".join(text.split())  # never more than one line
+
+
+class RouteRefusal(Exception):
+    """SUMO stopped a running simulation because it could not route a vehicle or person it was to
+    insert (e.g. "No connection found between edge 'a' and edge 'b' for person 'p.0'"): a route the
+    input asks for does not exist on the net. ``time`` [s] is the simulation time it happened."""
+
+    def __init__(self, time: float, message: str):
+        self.time = float(time)
+        self.message = " ".join(str(message).split())
+        super().__init__(f"at t = {self.time:.2f} s: {self.message}")

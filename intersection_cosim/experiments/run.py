@@ -25,7 +25,7 @@ import pandas as pd
 from intersection_cosim import __version__
 from intersection_cosim.control import registry
 from intersection_cosim.control.base import ControlContext, Controller, Diagnostics, World
-from intersection_cosim.errors import InputError
+from intersection_cosim.errors import InputError, RouteRefusal
 from intersection_cosim.experiments.deadlock import StandstillWatch
 from intersection_cosim.experiments.memory_guard import MemoryGuard
 from intersection_cosim.experiments.files import (ROUTE_FILE, SUMOCFG_FILE, run_output_options, write_routes,
@@ -344,7 +344,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     generic = {} if scn.network.generated else dict(
         lane_change_mode=LANE_CHANGE_MODE_STRATEGIC, adopt_controlled=controller.controls_vehicles,
         control_range=scn.network.control_range,
-        crossings=movement_crossings(inputs.movements))
+        crossings=movement_crossings(inputs.movements), people_first=controller.controls_vehicles)
     sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,
                          exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO,
                          **generic)
@@ -358,8 +358,11 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
             view.attach(sim.api)
         channel = (Channel(scn.v2x, inputs.movements, scn.controller.period, s.seed)
                    if scn.v2x.enabled else None)
-        records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain, channel,
-                               (StandstillWatch(s.deadlock_time), MemoryGuard(s.memory_limit)))
+        try:
+            records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain, channel,
+                                   (StandstillWatch(s.deadlock_time), MemoryGuard(s.memory_limit)))
+        except RouteRefusal as exc:
+            raise _route_error(scn, exc) from None
         final_paths = {**sim.left_paths, **sim.current_path}
         exit_lanes = dict(sim.exit_lane_taken)
         infos = dict(sim.vehicles)  # with the vehicles of the user's own route file
@@ -369,6 +372,14 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
             view.close()
     return _Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None,
                       {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None)
+
+
+def _route_error(scn: Scenario, exc: RouteRefusal) -> Exception:
+    """The InputError of a route SUMO could not find in mid-run: one of the user's own route file
+    (ours are checked when the scenario loads; anything else is a defect, raised as it is)."""
+    if scn.network.routes is None:
+        return RuntimeError(f"SUMO could not route a vehicle of the scenario's own demand {exc}")
+    return InputError(scn.source, "network.routes", scn.network.routes, f"SUMO cannot route it {exc}")
 
 
 def _signals_off(scn: Scenario, controller: Controller) -> bool:

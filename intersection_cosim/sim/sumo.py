@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import re
 import subprocess
 from dataclasses import dataclass, field
 from types import ModuleType
@@ -25,12 +26,13 @@ import libsumo
 import numpy as np
 
 from intersection_cosim.control.base import Decisions, Walker, World
+from intersection_cosim.errors import RouteRefusal
 from intersection_cosim.network.crossings import PedestrianCrossing
 from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 
 LENGTH_TOL = 0.01  # [m] a lane whose SUMO length differs from its shape's by less is taken as its shape
-WALK_SPEED_MIN = 0.2  # [m/s] a person on a walking area slower than this waits (for a gap), it is not walking on
+WALK_SPEED_MIN = 0.0  # [m/s] a person on a walking area at least this fast counts (0: a waiting one too)
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
          libsumo.VAR_LANE_ID, libsumo.VAR_LANEPOSITION)
 
@@ -39,6 +41,8 @@ LANE_CHANGE_MODE_CONTROLLED = 0  # SUMO makes no lane change of its own
 # On any net: strategic lane changes only (to reach the lanes of its route), respecting others'
 # gaps; a vehicle inserted on the wrong lane of a multi-lane approach could not turn otherwise
 LANE_CHANGE_MODE_STRATEGIC = 0b1000000001
+# SUMO's message when it cannot route a vehicle or person at its insertion
+ROUTE_REFUSAL = re.compile(r"No connection (found )?between edge")
 SPEED_MODE_SUMO = 31  # SUMO's default: every safety check on (for vehicles released from control)
 
 
@@ -123,7 +127,11 @@ class SumoSimulation:
     #   its vType at departure: length [m], width [m], accel [m/s^2], decel [m/s^2]
     crossings: Mapping[str, PedestrianCrossing] = field(default_factory=dict)  # the crossings the paths run
     #   over, by lane id (network/crossings.py, movement_crossings); none: no person is read
+    people_first: bool = False  # each person is told, at its departure, that vehicles yield to it
+    #   (impatience 1: it does not wait for a gap); for controllers that command the vehicles with
+    #   SUMO's right of way off, which SUMO's people would otherwise still count on
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
+    _impatient_types: set[str] = field(default_factory=set)  # person vTypes set to impatience 1
     _walking_areas: dict[str, list[PedestrianCrossing]] = field(default_factory=dict)  # lane -> crossings at it
     _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
@@ -177,9 +185,18 @@ class SumoSimulation:
 
     # --- one step --------------------------------------------------------------------------
     def advance(self) -> None:
-        """Step SUMO once, then register departures and arrivals and read every vehicle's state."""
-        self.api.simulationStep()
+        """Step SUMO once, then register departures and arrivals and read every vehicle's state.
+        A route SUMO cannot find for a vehicle or person it inserts ends the simulation: raised as
+        :class:`~intersection_cosim.errors.RouteRefusal`."""
+        try:
+            self.api.simulationStep()
+        except Exception as exc:  # libsumo's and traci's FatalTraCIError / TraCIException
+            if ROUTE_REFUSAL.search(str(exc)):
+                raise RouteRefusal(self.time + self.step_length, str(exc)) from None
+            raise
         self.time = self.api.simulation.getTime()
+        if self.people_first:
+            self._people_first()
         for vid in self.api.simulation.getDepartedIDList():
             self.departed[vid] = self.time - self.step_length
             self.api.vehicle.subscribe(vid, _VARS)
@@ -371,9 +388,19 @@ class SumoSimulation:
                      exit_free=self._exit_free(exit_choices, roles, ids), length=body[:, 0], width=body[:, 1],
                      accel=body[:, 2], decel=body[:, 3], walkers=self.walkers())
 
+    def _people_first(self) -> None:
+        """Impatience 1 for the vType of each person that departed this step (set on its type:
+        libsumo's person.setImpatience addresses vehicles), once per type."""
+        for pid in self.api.simulation.getDepartedPersonIDList():
+            vtype = self.api.person.getTypeID(pid)
+            if vtype not in self._impatient_types:
+                self.api.vehicletype.setImpatience(vtype, 1.0)
+                self._impatient_types.add(vtype)
+
     def walkers(self) -> tuple[Walker, ...]:
-        """The persons on a managed junction's crossing, and those on a walking area at one that
-        walk (at least ``WALK_SPEED_MIN``) with that crossing as their next edge; () without
+        """The persons on a managed junction's crossing, and those on a walking area at one with
+        that crossing as their next edge, walking or waiting at the kerb (SUMO's person steps out
+        when its own gap model, blind to the controller's plans, says so); () without
         crossings. A person's axis position is its position projected onto the crossing's axis
         (in the axis' own metres, as the paths' crossing stretches are, whatever SUMO's length of
         the crossing lane), so on a walking area it lies before the axis' start or past its end."""

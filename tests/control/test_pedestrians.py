@@ -124,7 +124,7 @@ def test_a_plan_that_ends_on_the_crossing_leaves_it_from_the_plans_end(fokr):
     """A slow start whose horizon ends inside the crossing: the leaving is reckoned from the plan's
     last state, not taken as never (which held the vehicle against every person to come)."""
     movements, zones = fokr
-    path, (c_in, _) = movements.paths[PATH], zones[PATH]
+    c_in, _ = zones[PATH]
     s = c_in.zone_in - 1.0  # [m]
     world = make_world(movements.paths, 10.0, [("A", PATH, s, 0.0)])
     plan = Plan.from_accelerations(s, 0.0, np.full(30, 1.0), 0.1)  # 1 m/s^2 for 3 s: 4.5 m, 3 m/s

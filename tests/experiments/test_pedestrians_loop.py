@@ -49,3 +49,31 @@ def test_the_game_controllers_vehicles_yield_to_people_on_the_crossings(tmp_path
     blind = _run(tmp_path, "blind", yield_to_pedestrians=False)
     assert blind["counts"]["pedestrian_collisions"] >= 1 and blind["counts"]["pedestrian_holds"] == 0
     assert blind["metrics"]["mean_travel_time"] < yielding["metrics"]["mean_travel_time"]  # [s] yielding costs time
+
+
+WAITING = """<routes>
+<personFlow id="pw" begin="0" end="60" period="8" departPos="297"><walk from="153021549" to="-331121198" arrivalPos="0.4"/></personFlow>
+</routes>
+"""
+
+
+@pytest.mark.slow
+def test_people_who_would_wait_at_a_kerb_cross_first_and_none_is_hit(tmp_path):
+    """An OSM junction of SUMO's DRT net (tools/game/DRT) whose crossings give people no priority:
+    SUMO's people wait at the kerb for a gap in the vehicles, judged by SUMO's right of way, which
+    is off for the commanded vehicles. Waiting, then stepping out, they were hit (3-5 in these 60 s);
+    yielded to while waiting they waited for the vehicles in turn (mean trip 80 s). They are now
+    told the vehicles yield, and are yielded to when they wait all the same."""
+    routes = tmp_path / "people.rou.xml"
+    routes.write_text(WAITING)
+    data = {"scenario": {"name": "kerb", "duration": 60.0, "drain": 60.0, "seed": 2},
+            "controller": {"kind": "nash"},
+            "network": {"file": "$SUMO_HOME/tools/game/DRT/osm.net.xml", "junctions": ["150751448"],
+                        "routes": str(routes)},
+            "flow": [{"from": "153021549", "to": "-149611526", "rate": 600, "kappa": 0.6, "begin": 0.0, "end": 60.0}]}
+    summary = run_scenario(scenario_from_dict(data, "<kerb>"), tmp_path / "run")
+    c = summary["counts"]
+    assert c["arrived"] == c["departed"] == 14
+    assert c["pedestrian_collisions"] == 0 and c["collisions"] == 0
+    assert c["pedestrian_holds"] > 50  # [-] vehicle-steps held back for people
+    assert summary["metrics"]["mean_travel_time"] < 55.0  # [s] ~44 s undisturbed; 80 s when both waited
