@@ -32,7 +32,6 @@ from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Moveme
 from intersection_cosim.network.paths import MovementPath
 
 LENGTH_TOL = 0.01  # [m] a lane whose SUMO length differs from its shape's by less is taken as its shape
-WALK_SPEED_MIN = 0.0  # [m/s] a person on a walking area at least this fast counts (0: a waiting one too)
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
          libsumo.VAR_LANE_ID, libsumo.VAR_LANEPOSITION)
 
@@ -195,7 +194,7 @@ class SumoSimulation:
                 raise RouteRefusal(self.time + self.step_length, str(exc)) from None
             raise
         self.time = self.api.simulation.getTime()
-        if self.people_first:
+        if self.people_first and self.crossings:
             self._people_first()
         for vid in self.api.simulation.getDepartedIDList():
             self.departed[vid] = self.time - self.step_length
@@ -418,7 +417,7 @@ class SumoSimulation:
                 out.append(Walker(pid, lane, crossing.along(x, y), sign, person.getSpeed(pid), x, y))
                 continue
             near = self._walking_areas.get(lane)
-            if not near or person.getSpeed(pid) < WALK_SPEED_MIN:
+            if not near:
                 continue
             nxt = person.getNextEdge(pid)
             for crossing in near:
