@@ -24,7 +24,6 @@ import argparse
 import json
 import math
 import re
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -36,7 +35,7 @@ from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.network.junction_net import drivable_connections, junction_table
 from intersection_cosim.scenario import scenario_from_dict
-from intersection_cosim.scenario.network import read_net, resolve_path
+from intersection_cosim.scenario.network import read_net, resolve_path, sumo_refusal
 
 
 def od_pairs(net, junction: str) -> list[tuple[str, str]]:
@@ -90,10 +89,8 @@ def routable_walks(net_file: str, walks: list, folder: Path) -> list:
         probe.write_text("\n".join(["<routes>"] + [
             f'    <person id="w{i}" depart="0" departPos="{dp:.2f}"><walk from={quoteattr(a)} to={quoteattr(b)} '
             f'arrivalPos="{ap:.2f}"/></person>' for i, (a, b, dp, ap) in enumerate(walks)] + ["</routes>", ""]))
-        proc = subprocess.run([sumolib.checkBinary("sumo"), "-n", net_file, "-r", str(probe), "--end", "1",
-                               "--no-step-log", "true", "--no-warnings", "true"], capture_output=True, text=True)
-        refused = re.search(r"for person 'w(\d+)'", proc.stderr + proc.stdout)
-        if proc.returncode == 0 or refused is None:
+        refused = re.search(r"for person 'w(\d+)'", sumo_refusal(net_file, str(probe)) or "")
+        if refused is None:
             return walks
         del walks[int(refused.group(1))]
     return walks

@@ -159,10 +159,16 @@ def _routes(src: str, value: Any, path: str, net_file: str) -> str:
         raise InputError(src, field, value, f"is not SUMO routes XML ({exc})") from None
     if root.tag != "routes":
         raise InputError(src, field, value, f"is not SUMO routes XML (its root is <{root.tag}>, not <routes>)")
-    refusal = _sumo_refusal(net_file, path, os.stat(net_file).st_mtime_ns, os.stat(path).st_mtime_ns)
+    refusal = sumo_refusal(net_file, path)
     if refusal is not None:
         raise InputError(src, field, value, f"SUMO refuses it: {refusal}")
     return path
+
+
+def sumo_refusal(net_file: str, routes: str) -> str | None:
+    """SUMO's first "Error:" line loading ``routes`` on ``net_file`` for 1 s (None: it accepts
+    them); cached per version of the two files."""
+    return _sumo_refusal(net_file, routes, os.stat(net_file).st_mtime_ns, os.stat(routes).st_mtime_ns)
 
 
 @functools.lru_cache(maxsize=8)
