@@ -33,6 +33,7 @@ import sumolib
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.network.crossings import junction_crossings
 from intersection_cosim.network.junction_net import drivable_connections, junction_table
 from intersection_cosim.scenario import scenario_from_dict
 from intersection_cosim.scenario.network import read_net, resolve_path, sumo_refusal
@@ -64,10 +65,10 @@ def walk_pairs(net_file: str, junction: str) -> list[tuple[str, str, float, floa
     """(road in, road out, departPos [m], arrivalPos [m]) of the walks round ``junction``: every
     road in and road out with a sidewalk, on different arms, with a pedestrian route; none if the
     junction has no crossing."""
+    if not junction_crossings(net_file, (junction,)):
+        return []
     net = sumolib.net.readNet(net_file, withPedestrianConnections=True)
     node = net.getNode(junction)
-    if not any(e.getFunction() == "crossing" for e in node.getIncoming()):
-        return []
     ins = [e for e in node.getIncoming() if not e.isSpecial() and _walkable(e)]
     outs = [e for e in node.getOutgoing() if not e.isSpecial() and _walkable(e)]
     walks = []
@@ -80,15 +81,20 @@ def walk_pairs(net_file: str, junction: str) -> list[tuple[str, str, float, floa
     return walks
 
 
+def _walk(a: str, b: str, depart_pos: float, arrival_pos: float) -> str:
+    """The departPos attribute [m] and the walk element of a person or personFlow."""
+    return (f'departPos="{depart_pos:.2f}"><walk from={quoteattr(a)} to={quoteattr(b)} '
+            f'arrivalPos="{arrival_pos:.2f}"/>')
+
+
 def routable_walks(net_file: str, walks: list, folder: Path) -> list:
     """The walks SUMO's own pedestrian router can route (sumolib's may find a way SUMO does not):
     one person per walk departs at 0; each that SUMO refuses is dropped and the rest tried again."""
     walks = list(walks)
     probe = folder / "walk_probe.rou.xml"
     while walks:
-        probe.write_text("\n".join(["<routes>"] + [
-            f'    <person id="w{i}" depart="0" departPos="{dp:.2f}"><walk from={quoteattr(a)} to={quoteattr(b)} '
-            f'arrivalPos="{ap:.2f}"/></person>' for i, (a, b, dp, ap) in enumerate(walks)] + ["</routes>", ""]))
+        probe.write_text("\n".join(["<routes>"] + [f'    <person id="w{i}" depart="0" {_walk(*w)}</person>'
+                                                    for i, w in enumerate(walks)] + ["</routes>", ""]))
         refused = re.search(r"for person 'w(\d+)'", sumo_refusal(net_file, str(probe)) or "")
         if refused is None:
             return walks
@@ -101,8 +107,7 @@ def people_routes(walks, rate: float, duration: float, out: Path) -> Path:
     lines = ["<routes>"]
     for i, (a, b, depart_pos, arrival_pos) in enumerate(walks):
         lines.append(f'    <personFlow id="p{i}" begin="0" end="{duration}" probability="{rate / len(walks) / 3600.0:.6f}" '
-                     f'departPos="{depart_pos:.2f}"><walk from={quoteattr(a)} to={quoteattr(b)} '
-                     f'arrivalPos="{arrival_pos:.2f}"/></personFlow>')
+                     f'{_walk(a, b, depart_pos, arrival_pos)}</personFlow>')
     out.write_text("\n".join(lines + ["</routes>", ""]))
     return out
 
