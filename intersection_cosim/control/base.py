@@ -57,6 +57,7 @@ class World:
     width: np.ndarray | None = None  # [m] per vehicle (its vType's); None: ModelSettings.vehicle_width
     accel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's strongest acceleration; None: no own limit
     decel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's braking (> 0); None: no own limit
+    emergency_decel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's hardest braking (> 0); None: unknown
     walkers: tuple[Walker, ...] = ()  # pedestrians on or walking onto a managed junction's crossings
 
     def subset(self, keep: list[int]) -> "World":
@@ -108,6 +109,13 @@ class World:
         lo = a_min if self.decel is None else max(a_min, -float(self.decel[k]))
         hi = a_max if self.accel is None else min(a_max, float(self.accel[k]))
         return lo, hi
+
+    def emergency_brake(self, k: int, default: float) -> float:
+        """[m/s^2] (< 0) the hardest braking vehicle k can do in an emergency: its vType's
+        emergencyDecel where the World carries it, else ``default`` [m/s^2] (< 0)."""
+        if self.emergency_decel is None or not math.isfinite(float(self.emergency_decel[k])):
+            return default
+        return -float(self.emergency_decel[k])
 
     def __len__(self) -> int:
         return len(self.ids)

@@ -290,8 +290,9 @@ class GameController:
             ids = world.ids  # the pairs that play their game (none in a fallback step: stale plans)
             games = frozenset() if decisions.fallback else frozenset(
                 (min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())
+            holds, floors = self._holds(world, relations)
             held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
-                                     self._holds(world, relations), games)
+                                     holds, games, floors)
             self._held = self._held | held
             if self.settings.policy.filter_event:
                 self._events |= self.safety.events
@@ -314,10 +315,12 @@ class GameController:
             return all(v in index and float(world.v[index[v]]) >= slow for v in e)
         return {e for e in self._events if holds(e)}
 
-    def _holds(self, world: World, relations: Relations) -> dict[str, float]:
+    def _holds(self, world: World, relations: Relations) -> tuple[dict[str, float], dict[str, float]]:
         """[m/s^2] the caps of the exit-room rule, of the pedestrians at the crossings
         (control/pedestrians.py) and, with ModelSettings.lane_speed_limits, of the lane speed
-        limits (control/speed_limits.py), the lowest per vehicle."""
+        limits (control/speed_limits.py), the lowest per vehicle; and [m/s^2] the pedestrian caps
+        that are emergency stops (harder than the vehicle's own braking), which the filter applies
+        as they are."""
         holds = self._exit_holds(world)
         period = self.ctx.control_period
         game, zones = self.settings.game, self.crossing_zones if self.settings.safety.yield_to_pedestrians else {}
@@ -332,16 +335,25 @@ class GameController:
 
         others = [pedestrian_holds(world, self.ctx.movements, zones, self.memory.options, self.memory.plans,
                                    self.settings.safety, self.model.tcp_speed_floor,
-                                   lambda k: world.accel_limits(k, game.a_min, game.a_max), game.comfort_brake, period,
-                                   leader_of)]
+                                   lambda k: self._limits(world, k), game.comfort_brake, period, leader_of)]
         self.pedestrian_holds += len(others[0])
+        index = {vid: k for k, vid in enumerate(world.ids)}
+        floors = {vid: cap for vid, cap in others[0].items() if cap < self._limits(world, index[vid])[0]}
         if self.model.lane_speed_limits:
             others.append(lane_speed_holds(world, self.ctx.movements, self.memory.options, self.model.lane_speed_decel,
                                            period))
         for caps in others:
             for vid, cap in caps.items():
                 holds[vid] = min(cap, holds.get(vid, math.inf))
-        return holds
+        return holds, floors
+
+    def _limits(self, world: World, k: int) -> tuple[float, float, float]:
+        """[m/s^2] vehicle k's (hardest braking, strongest acceleration) in the game's bounds, and
+        its hardest emergency braking (its vType's emergencyDecel; no harder than the first where
+        the World carries none)."""
+        game = self.settings.game
+        lo, hi = world.accel_limits(k, game.a_min, game.a_max)
+        return lo, hi, min(lo, world.emergency_brake(k, lo))
 
     def _exit_holds(self, world: World) -> dict[str, float]:
         """[m/s^2] caps that keep vehicles whose exit lane is full at their stop lines."""

@@ -21,7 +21,11 @@ cover, within ``pedestrian_time_gap`` of when the vehicle would be there:
   clear it), else stops ``pedestrian_margin`` before the crossing; it brakes from the last moment
   at which ``brake_from`` [m/s^2] still stops it there after one more period at full
   acceleration (a vehicle that started braking at the first sight of a person far ahead crawled
-  through the junction for 40 s), and if it can no longer stop before the crossing it drives on
+  through the junction for 40 s); if it can no longer stop before the crossing within its own
+  braking but a person is on its stretch, or reaches it before the vehicle and is still there
+  when it arrives, it makes an emergency stop at the crossing's edge (at most
+  its vType's emergencyDecel: a vehicle SUMO inserts a few metres before a crossing that a person
+  is walking over, Ingolstadt's junction 335525545); if it cannot stop even so, it drives on
   (braking then would leave it standing on the crossing).
 
 Every exit lane the vehicle may still take counts. The caps go to the safety filter as holds, as
@@ -101,7 +105,8 @@ def pedestrian_holds(world: World, movements: Movements, zones: Mapping[str, tup
                      leader_of=None) -> dict[str, float]:
     """[m/s^2] per controlled vehicle that must yield to a pedestrian, or keep a crossing clear
     (module docstring), the acceleration that keeps it out of the crossing; ``limits_of(k)``
-    [m/s^2] (hardest braking (< 0), strongest acceleration) of vehicle k, ``speed_floor`` [m/s]
+    [m/s^2] (hardest braking (< 0), strongest acceleration, hardest emergency braking (< 0)) of
+    vehicle k (a hold below the first is an emergency stop), ``speed_floor`` [m/s]
     as in :func:`vehicle_window`, ``brake_from`` [m/s^2] (> 0) and ``period`` [s] as in the
     module docstring; ``leader_of(k, exit_lane)``: ([m] the rear of k's leader in the frame of
     k's path to that exit lane, [m/s] its speed), or None without one. Nothing without people."""
@@ -129,20 +134,27 @@ def pedestrian_holds(world: World, movements: Movements, zones: Mapping[str, tup
 
 
 def _zone_hold(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, lead, s_stop: float,
-               settings: SafetySettings, speed_floor: float, limits: tuple[float, float], brake_from: float,
+               settings: SafetySettings, speed_floor: float, limits: tuple[float, float, float], brake_from: float,
                period: float) -> float | None:
-    """[m/s^2] vehicle k's hold before one crossing (:func:`_stay_out`), or None where it need not
-    stay out: it is already in the zone, or no person is in its way and the crossing is clear
-    to leave (its leader ``lead``, rear [m] and speed [m/s], leaves room behind the crossing or
-    moves on)."""
+    """[m/s^2] vehicle k's hold before one crossing (:func:`_stay_out`, or an emergency stop within
+    ``limits[2]``), or None where it need not or cannot stay out: it is already in the zone, or
+    no person is in its way and the crossing is clear to leave (its leader ``lead``, rear [m] and
+    speed [m/s], leaves room behind the crossing or moves on), or it cannot stop before it."""
     s = float(world.s[k])
     if s >= zone.zone_in:
         return None
     blocked = (lead is not None and lead[0] < zone.zone_out + settings.safety_margin
                and lead[1] < settings.clear_speed and bool(walkers))
-    if not blocked and not _conflict(world, k, zone, walkers, plan, settings, speed_floor, limits[1]):
+    conflict = _conflict(world, k, zone, walkers, plan, settings, speed_floor, limits[1])
+    if not (blocked or conflict):
         return None
-    return _stay_out(s, float(world.v[k]), s_stop, zone.zone_in, settings, limits, brake_from, period)
+    v = float(world.v[k])
+    a = _stay_out(s, v, s_stop, zone.zone_in, settings, limits[:2], brake_from, period)
+    if a is None and conflict and _in_front(world, k, zone, walkers, plan, settings, speed_floor, limits[1]):
+        a = stopping_acceleration(s, v, zone.zone_in - 0.05)  # an emergency stop at the crossing's edge
+        if a is None or a < limits[2]:
+            return None  # it cannot stop before the crossing even so: it drives on
+    return a
 
 
 def _conflict(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, settings: SafetySettings,
@@ -156,6 +168,19 @@ def _conflict(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | No
     for w in walkers:
         window = walker_window(w, zone.span, settings)
         if window is not None and window[0] < t_out + gap and t_in < window[1] + gap:
+            return True
+    return False
+
+
+def _in_front(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, settings: SafetySettings,
+              speed_floor: float, accel: float) -> bool:
+    """Whether a walker is on vehicle k's stretch of ``zone``'s crossing, or reaches it before the
+    vehicle's front does (:func:`vehicle_window`), and is still there when the vehicle arrives: a
+    person the vehicle would run into, not one who meets it on the crossing."""
+    t_in, _ = vehicle_window(world, k, zone, plan, speed_floor, accel)
+    for w in walkers:
+        window = walker_window(w, zone.span, settings)
+        if window is not None and window[0] <= t_in < window[1]:
             return True
     return False
 

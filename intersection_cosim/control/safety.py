@@ -200,14 +200,17 @@ class SafetyFilter:
 
     def apply(self, world: World, relations: Relations, plans: Mapping[str, Plan], options: Mapping[str, str],
               decisions: Decisions, holds: Mapping[str, float] | None = None,
-              games: frozenset[tuple[str, str]] = frozenset()) -> frozenset[str]:
+              games: frozenset[tuple[str, str]] = frozenset(),
+              floors: Mapping[str, float] | None = None) -> frozenset[str]:
         """Lower (or, by the box rule, raise) ``decisions.accel`` where this step's ``plans``
         would collide; ``options``: the exit lane each vehicle takes; ``holds`` [m/s^2]: caps
         of other rules (e.g. control/exit_room.py's), enforced and seen by the crossings like
         the filter's own; ``games``: sorted vehicle-id pairs that play their game this step
         (their plans are a game's: their crossing keeps only ``SafetySettings.game_gap_share``
-        of the time gap; none in a fallback step, whose plans are the last ones shifted). Returns the vehicles held back at a crossing or by ``holds`` (not only
-        behind a leader).
+        of the time gap; none in a fallback step, whose plans are the last ones shifted);
+        ``floors`` [m/s^2]: per vehicle, a braking harder than its own that a hold may use this
+        step (an emergency stop for a pedestrian, control/pedestrians.py). Returns the vehicles
+        held back at a crossing or by ``holds`` (not only behind a leader).
 
         Two passes: a vehicle braked in the first pass is checked again in the second with its
         braking plan (constant capped deceleration to a stop), so a vehicle made to stop is seen
@@ -216,9 +219,11 @@ class SafetyFilter:
         self.events, self._games = set(), games
         rows = relations.rows
         brakes = self._brakes(world)
+        for vid, floor in (floors or {}).items():
+            brakes[vid] = min(floor, brakes.get(vid, self.problem.a_min))
         chosen = tuple(rows.option[r] == options.get(world.ids[rows.vehicle[r]], rows.option[r])
                        for r in range(len(rows)))
-        cap = self._leader_caps(world, relations, chosen, decisions)
+        cap = self._leader_caps(world, relations, chosen, decisions, floors or {})
         leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
         for vid, limit in (holds or {}).items():
             if vid in decisions.accel:
@@ -298,8 +303,12 @@ class SafetyFilter:
         ok = usable[a] & usable[b] & e1 & e2 & e3 & e4 & np.isfinite(zone_i).all(axis=1) & np.isfinite(zone_j).all(axis=1)
         return ~(apart & ok), (np.where(ok, in_i, np.nan), out_i, in_j, out_j)
 
-    def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions) -> dict[str, float]:
-        """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed."""
+    def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions,
+                     floors: Mapping[str, float]) -> dict[str, float]:
+        """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed behind a leader
+        braking as hard as it may (harder in an emergency stop: ``floors`` [m/s^2], see :meth:`apply`;
+        a follower that counted on the leader's own braking stopped 0.09 m behind one that stopped
+        at 7.7 m/s^2 for a person)."""
         st, rows = self.settings, relations.rows
         cap: dict[str, float] = {}
         for r, lead in relations.leaders.items():
@@ -309,8 +318,9 @@ class SafetyFilter:
                 continue
             length = world.length_of(lead.vehicle, self.model.vehicle_length)  # [m] the leader's body
             gap = lead.gap - length - st.safety_margin  # [m] bumper to bumper, less margin
+            lead_brake = min(self._brake(world, lead.vehicle), floors.get(world.ids[lead.vehicle], 0.0))  # [m/s^2]
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self._brake(world, k), self.period,
-                                       -self._brake(world, lead.vehicle))
+                                       -lead_brake)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k])) / self.period)
         return cap
 

@@ -122,8 +122,8 @@ class SumoSimulation:
     adopt_controlled: bool = True  # vehicles of the user's own route file are controlled
     control_range: float = math.inf  # [m] before the stop line where a vehicle without an intended path is taken over
     taken: set[str] = field(default_factory=set)  # vehicles whose speed the controller commands
-    bodies: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)  # per vehicle, read from
-    #   its vType at departure: length [m], width [m], accel [m/s^2], decel [m/s^2]
+    bodies: dict[str, tuple[float, float, float, float, float]] = field(default_factory=dict)  # per vehicle, read
+    #   from its vType at departure: length [m], width [m], accel, decel, emergency decel [m/s^2]
     crossings: Mapping[str, PedestrianCrossing] = field(default_factory=dict)  # the crossings the paths run
     #   over, by lane id (network/crossings.py, movement_crossings); none: no person is read
     people_first: bool = False  # each person is told, at its departure, that vehicles yield to it
@@ -201,7 +201,8 @@ class SumoSimulation:
             self.api.vehicle.subscribe(vid, _VARS)
             info = self.vehicles.get(vid) or self._adopt(vid)
             veh = self.api.vehicle
-            self.bodies[vid] = (veh.getLength(vid), veh.getWidth(vid), veh.getAccel(vid), veh.getDecel(vid))
+            self.bodies[vid] = (veh.getLength(vid), veh.getWidth(vid), veh.getAccel(vid), veh.getDecel(vid),
+                                veh.getEmergencyDecel(vid))
             if info.desired_speed is not None:
                 self.api.vehicle.setMaxSpeed(vid, info.desired_speed)
             if info.intended_path is None:
@@ -352,7 +353,7 @@ class SumoSimulation:
         n = len(ids)
         s = np.empty(n)
         arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
-        body = np.array([self.bodies[vid] for vid in ids], float).reshape(n, 4)  # length, width, accel, decel
+        body = np.array([self.bodies[vid] for vid in ids], float).reshape(n, 5)  # length, width, accel, decels
         human = np.zeros(n, bool)
         path_ids, roles, lanes = [], [], []
         exit_choices: dict[str, tuple[str, ...]] = {}
@@ -385,7 +386,7 @@ class SumoSimulation:
                      x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
                      lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human,
                      exit_free=self._exit_free(exit_choices, roles, ids), length=body[:, 0], width=body[:, 1],
-                     accel=body[:, 2], decel=body[:, 3], walkers=self.walkers())
+                     accel=body[:, 2], decel=body[:, 3], emergency_decel=body[:, 4], walkers=self.walkers())
 
     def _people_first(self) -> None:
         """Impatience 1 for the vType of each person that departed this step (set on its type:

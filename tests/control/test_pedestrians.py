@@ -3,14 +3,18 @@
 
 from pathlib import Path
 
+import time
+
 import numpy as np
 import pytest
 import sumo
 
-from intersection_cosim.control.base import Walker
+from intersection_cosim.control.base import ControlContext, Walker
+from intersection_cosim.control.game import GameController
 from intersection_cosim.control.pedestrians import pedestrian_holds, vehicle_window, walker_window
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
+from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.crossings import crossing_zones, junction_crossings
 from intersection_cosim.network.junction_net import load_movements
 from tests.control.conftest import make_world
@@ -39,11 +43,12 @@ def test_a_walkers_window_runs_from_reaching_the_stretch_fast_to_leaving_it_at_i
     assert standing == (0.0, pytest.approx(2.0 / 0.5))  # walks on at pedestrian_speed_low
 
 
-def _holds(fokr, s, v, walkers, lead=None):
+def _holds(fokr, s, v, walkers, lead=None, emergency=-4.0):
+    """``emergency`` [m/s^2]: the vehicle's hardest emergency braking (-4: none beyond its own)."""
     movements, zones = fokr
     world = make_world(movements.paths, 10.0, [("A", PATH, s, v)])
     world.walkers = tuple(walkers)
-    return pedestrian_holds(world, movements, zones, {}, {}, ST, 0.1, lambda k: (-4.0, 2.5), 2.0, 0.1,
+    return pedestrian_holds(world, movements, zones, {}, {}, ST, 0.1, lambda k: (-4.0, 2.5, emergency), 2.0, 0.1,
                             lambda k, exit_lane: lead)
 
 
@@ -133,3 +138,49 @@ def test_a_plan_that_ends_on_the_crossing_leaves_it_from_the_plans_end(fokr):
     assert t_in == pytest.approx((2 * 1.0 / 1.0) ** 0.5, abs=0.1)
     assert t_out == pytest.approx(3.0 + ((v * v + 2 * 2.5 * rest) ** 0.5 - v) / 2.5)
     assert t_out < 6.0  # [s]
+
+
+def test_a_vehicle_too_close_to_stop_in_its_own_braking_makes_an_emergency_stop_for_a_person(fokr):
+    """SUMO inserts a vehicle 4 m before a crossing a person walks over (Ingolstadt 335525545: it
+    hit her at 7 m/s). At 5.7 m/s stopping there takes 4.1 m/s^2, beyond its 4 m/s^2: it brakes
+    within its emergencyDecel instead of driving on; it still drives on when it cannot stop even so."""
+    movements, zones = fokr
+    c_in, _ = zones[PATH]
+    person = Walker("p", c_in.lane, sum(c_in.span) / 2, +1, 1.2)  # in front of it
+    need = -5.7 ** 2 / (2 * (4.0 - 0.05))  # [m/s^2] to stop at the crossing's edge
+    assert _holds(fokr, c_in.zone_in - 4.0, 5.7, [person]) == {}  # no harder braking known: drives on
+    assert _holds(fokr, c_in.zone_in - 4.0, 5.7, [person], emergency=-9.0)["A"] == pytest.approx(need)
+    assert _holds(fokr, c_in.zone_in - 4.0, 10.0, [person], emergency=-9.0) == {}  # 12.7 m/s^2: drives on
+    assert _holds(fokr, c_in.zone_in - 4.0, 5.7, [], emergency=-9.0) == {}  # nobody: no emergency
+    # in the closed loop the safety filter lets the emergency stop through, below the vehicle's decel
+    controller = GameController("nash")
+    controller.setup(ControlContext(movements=movements, model=ModelSettings(), control_period=0.1, settings=None,
+                                    etm=True))
+    world = make_world(movements.paths, 10.0, [("A", PATH, c_in.zone_in - 4.0, 5.7)])
+    world.walkers, world.decel, world.emergency_decel = (person,), np.array([4.5]), np.array([9.0])
+    a = controller.decide(world, time.perf_counter() + 10.0).accel["A"]
+    assert a < -4.0 and a == pytest.approx(need, rel=1e-3)  # [m/s^2] (its zone is built with the run's bodies)
+
+
+def test_the_follower_of_an_emergency_stop_keeps_its_safe_speed_behind_that_braking(fokr):
+    """Krauss' safe speed behind a leader that makes an emergency stop counts on the leader's
+    actual braking, not its vType's decel (on a DRT junction the follower stopped 0.09 m behind)."""
+    from intersection_cosim.control.safety import krauss_safe_speed
+
+    movements, zones = fokr
+    c_in, _ = zones[PATH]
+    person = Walker("p", c_in.lane, sum(c_in.span) / 2, +1, 1.2)
+    s_a, v = c_in.zone_in - 4.0, 7.0  # [m], [m/s]: a stop at 6.2 m/s^2
+    controller = GameController("nash")
+    controller.setup(ControlContext(movements=movements, model=ModelSettings(), control_period=0.1, settings=None,
+                                    etm=True))
+    world = make_world(movements.paths, 10.0, [("A", PATH, s_a, v), ("B", PATH, s_a - 8.0, v)])
+    world.walkers, world.decel, world.emergency_decel = (person,), np.array([4.0, 4.0]), np.array([9.0, 9.0])
+    d = controller.decide(world, time.perf_counter() + 10.0)
+    stop = -v * v / (2 * (4.0 - 0.05))  # [m/s^2] A's emergency stop
+    assert d.accel["A"] == pytest.approx(stop, rel=1e-3)
+    gap = 8.0 - controller.model.vehicle_length - controller.settings.safety.safety_margin  # [m] bumper to bumper
+    behind_emergency = (krauss_safe_speed(gap, v, 4.0, 0.1, -stop) - v) / 0.1  # [m/s^2]
+    behind_normal = (krauss_safe_speed(gap, v, 4.0, 0.1, 4.0) - v) / 0.1
+    assert behind_emergency < behind_normal - 1.0
+    assert d.accel["B"] <= behind_emergency + 1e-6
