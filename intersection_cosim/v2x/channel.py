@@ -17,7 +17,10 @@ the simulation is dropped (the infrastructure knows a vehicle has left the netwo
 Plausibility (on by default): a message is rejected when its stamp is not newer than the
 sender's last accepted message, or its position or speed lies outside what the sender can have
 reached from that message within ``max_accel``, ``max_decel`` and ``max_speed`` (plus a
-tolerance for noise, :func:`reckoning.tolerances`). The sender is then predicted conservatively
+tolerance for noise, :func:`reckoning.tolerances`); ``max_decel`` is raised for a sender the
+controller itself told to brake harder (an emergency stop for a pedestrian,
+control/pedestrians.py): the infrastructure knows what it commanded, and rejecting that braking
+would show the vehicle farther on and faster than it is to the one behind it. The sender is then predicted conservatively
 until a message is accepted again, from its last accepted state and the interval it can have
 reached since (:func:`reckoning.reach`), at the end of that interval that is worse for the
 others: a sender last seen before its stop line is shown as far along and as fast as it can be
@@ -51,6 +54,7 @@ from intersection_cosim.v2x.settings import V2XSettings
 
 EPS = 1e-9  # [s] time comparisons
 STOP_LINE_GAP = 0.5  # [m] a suspect sender approaching is held this far before its stop line (still "ready")
+HARD_HOLD = 1.0  # [s] how long after it was sent a hard braking command is counted on (commands come every period)
 COUNTERS = ("messages_sent", "messages_lost", "messages_silenced", "attacked", "attacked_lost", "rejected",
             "missed", "false_rejections", "resyncs", "commands_sent", "commands_lost")
 
@@ -81,6 +85,8 @@ class Channel:
         self._down: list[Command] = []
         self.tracks: dict[str, Track] = {}
         self.counts = dict.fromkeys(COUNTERS, 0)
+        # per vehicle, the commands sent to it braking harder than max_decel: (send time [s], decel [m/s^2])
+        self._hard: dict[str, list[tuple[float, float]]] = {}
 
     # --- up: states ------------------------------------------------------------------------
     def sends_at(self, time: float) -> bool:
@@ -153,8 +159,20 @@ class Channel:
         if last.path_id not in paths or msg.path_id not in paths or \
                 paths[last.path_id].lanes[0] != paths[msg.path_id].lanes[0]:
             return True  # another approach lane (the next managed junction): a new track, speed checked
-        r = reach(last.s, last.v, dt, st.max_accel, st.max_decel, st.max_speed)
+        r = reach(last.s, last.v, dt, st.max_accel, self.decel_bound(msg.sender, last.stamp, msg.stamp),
+                  st.max_speed)
         return r.s_lo - tol_s <= msg.s <= r.s_hi + tol_s and r.v_lo - tol_v <= msg.v <= r.v_hi + tol_v
+
+    def decel_bound(self, vid: str, since: float, until: float) -> float:
+        """[m/s^2] the hardest braking sender ``vid`` can have had between its messages stamped
+        ``since`` and ``until`` [s]: ``max_decel``, or a harder braking the controller sent it that
+        may have been in force then (sent before ``until``, no more than ``HARD_HOLD`` before
+        ``since``: a vehicle holds a command until the next one arrives)."""
+        bound = self.settings.max_decel
+        for sent, decel in self._hard.get(vid, ()):
+            if since - HARD_HOLD - self.settings.latency <= sent <= until:
+                bound = max(bound, decel)
+        return bound
 
     # --- what the controller sees ----------------------------------------------------------
     def estimate(self, vid: str, time: float) -> tuple[float, float, float]:
@@ -211,8 +229,12 @@ class Channel:
             if self._down_loss.random() < self.settings.loss:
                 self.counts["commands_lost"] += 1
                 continue
-            self._down.append(Command(vid, time + self.settings.latency, decisions.accel.get(vid),
+            accel = decisions.accel.get(vid)
+            self._down.append(Command(vid, time + self.settings.latency, accel,
                                       decisions.exit_lane.get(vid), vid in release))
+            if accel is not None and -accel > self.settings.max_decel:
+                kept = [h for h in self._hard.get(vid, ()) if h[0] >= time - 2 * HARD_HOLD - self.settings.resync]
+                self._hard[vid] = kept + [(time, -accel)]
 
     def deliver(self, time: float) -> Decisions | None:
         """The commands that reach their vehicles by ``time`` [s] (None: none), oldest first."""

@@ -19,16 +19,16 @@ PEOPLE = """<routes>
 """
 
 
-def _run(tmp_path, name: str, kind: str = "nash", **safety) -> dict:
+def _run(tmp_path, name: str, kind: str = "nash", seed: int = 1, v2x: dict | None = None, **safety) -> dict:
     routes = tmp_path / "people.rou.xml"
     routes.write_text(PEOPLE)
     flows = [{"from": a, "to": b, "rate": 240, "kappa": 0.6, "begin": 0.0, "end": 60.0}
              for a, b in (("-1.23", "5"), ("-5.5", "1"), ("-2.10", "3"), ("-3.22", "2"))]
-    data = {"scenario": {"name": "people", "duration": 60.0, "drain": 60.0, "seed": 1},
+    data = {"scenario": {"name": "people", "duration": 60.0, "drain": 60.0, "seed": seed},
             "controller": {"kind": kind, **({"safety": safety} if safety else {})},
             "network": {"file": "$SUMO_HOME/tools/game/fokr_bs_demo/fokr_bs.net.xml.gz", "junctions": ["38"],
                         "routes": str(routes)},
-            "flow": flows}
+            "flow": flows, **({"v2x": v2x} if v2x else {})}
     return run_scenario(scenario_from_dict(data, "<people>"), tmp_path / name)
 
 
@@ -50,6 +50,17 @@ def test_the_game_controllers_vehicles_yield_to_people_on_the_crossings(tmp_path
     assert blind["counts"]["pedestrian_collisions"] >= 1 and blind["counts"]["pedestrian_holds"] == 0
     assert blind["metrics"]["mean_travel_time"] < yielding["metrics"]["mean_travel_time"]  # [s] yielding costs time
 
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [5, 6])
+def test_people_are_not_hit_when_the_vehicles_states_come_over_a_noisy_link(tmp_path, seed):
+    """0.2 m / 0.1 m/s of V2X noise read vehicles standing at a crossing's edge as inside it, and
+    the rule let them drive on into the person (4 and 1 hit in these seeds); a vehicle at the
+    edge with a person in front now stops there (control/pedestrians.py, _edge_stop)."""
+    c = _run(tmp_path, "noisy", seed=seed, v2x={"position_noise": 0.2, "speed_noise": 0.1})["counts"]
+    assert c["arrived"] == c["departed"] > 10
+    assert c["pedestrian_collisions"] == 0 and c["collisions"] == 0 and c["pedestrian_holds"] > 50
 
 WAITING = """<routes>
 <personFlow id="pw" begin="0" end="60" period="8" departPos="297"><walk from="153021549" to="-331121198" arrivalPos="0.4"/></personFlow>

@@ -129,6 +129,25 @@ def test_plausibility_rejects_a_5_m_jump_and_accepts_a_physical_message(movement
     assert not ch.plausible(accepted, old)
 
 
+def test_a_braking_the_controller_commanded_is_plausible_beyond_max_decel(movements):
+    """An emergency stop at 7 m/s^2 (control/pedestrians.py) seen over a gap in the messages lies
+    outside the 4.5 m/s^2 bound: it passes once the controller itself has sent that braking, and
+    for that vehicle only."""
+    ch = Channel(V2XSettings(), movements, PERIOD, seed=1)
+    last = truth(movements, 0.0, 20.0, 10.0)
+    ch.uplink(last)
+    ch.observe(last)
+    accepted = ch.tracks["A"].accepted
+    # 7 m/s^2 for 0.5 s (four messages lost): 3.5 m/s slower, beyond 4.5 m/s^2 and the 0.5 m/s slack
+    hard = dataclasses.replace(accepted, stamp=0.5, s=20.0 + 5.0 - 0.5 * 7.0 * 0.25, v=10.0 - 3.5)
+    assert not ch.plausible(accepted, hard)
+    ch.send(Decisions(accel={"B": -7.0}), 0.0)  # another vehicle's command
+    assert not ch.plausible(accepted, hard)
+    ch.send(Decisions(accel={"A": -7.0}), 0.0)
+    assert ch.plausible(accepted, hard)
+    assert ch.decel_bound("A", 0.0, 0.5) == pytest.approx(7.0) and ch.decel_bound("A", 5.0, 5.1) == pytest.approx(4.5)
+
+
 def test_position_offset_attack_is_rejected_and_predicted_conservatively(movements):
     attack = AttackSettings(vehicle="A", kind="position_offset", value=5.0, begin=0.5, end=0.8)
     ch = Channel(V2XSettings(attack=(attack,)), movements, PERIOD, seed=1)
