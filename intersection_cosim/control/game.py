@@ -147,7 +147,8 @@ class GameController:
         self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
                                    context.control_period, self.table.s_wait,
                                    {pid: (context.paths[pid].s_wait, lanes)
-                                    for pid, lanes in waiting_watches(context.movements).items()})
+                                    for pid, lanes in waiting_watches(context.movements).items()},
+                                   gap_slack=3.0 * math.sqrt(2.0) * context.position_noise)
         self.schedule = AnytimeSchedule()
         reset_workspaces()
         self._warm_up()

@@ -138,10 +138,10 @@ def pedestrian_holds(world: World, movements: Movements, zones: Mapping[str, tup
 def _zone_hold(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, lead, s_stop: float,
                settings: SafetySettings, speed_floor: float, limits: tuple[float, float, float], brake_from: float,
                period: float) -> float | None:
-    """[m/s^2] vehicle k's hold before one crossing (:func:`_stay_out`, or an emergency stop within
-    ``limits[2]``), or None where it need not or cannot stay out: it is already in the zone, or
-    no person is in its way and the crossing is clear to leave (its leader ``lead``, rear [m] and
-    speed [m/s], leaves room behind the crossing or moves on), or it cannot stop before it."""
+    """[m/s^2] vehicle k's hold before one crossing (:func:`_stay_out`, or :func:`_edge_stop`), or
+    None where it need not or cannot stay out: it is in the zone (past its edge, or with nobody
+    in front), or no person is in its way and the crossing is clear to leave (its leader ``lead``,
+    rear [m] and speed [m/s], leaves room behind the crossing or moves on), or it cannot stop."""
     s = float(world.s[k])
     if s >= zone.zone_in:  # in the zone: it drives on, unless it can stop at the edge short of a person
         return _edge_stop(world, k, zone, walkers, plan, settings, speed_floor, limits, period)

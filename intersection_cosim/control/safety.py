@@ -176,8 +176,11 @@ class SafetyFilter:
 
     def __init__(self, settings: SafetySettings, problem: ProblemSettings, model: ModelSettings,
                  s_stop: np.ndarray, period: float, s_wait: np.ndarray | None = None,
-                 waits: Mapping[str, tuple[float, frozenset[str]]] | None = None):
+                 waits: Mapping[str, tuple[float, frozenset[str]]] | None = None, gap_slack: float = 0.0):
         self.settings, self.problem, self.model, self.s_stop, self.period = settings, problem, model, s_stop, period
+        # [m] taken off every gap to a leader beyond safety_margin: the error of two noisy positions
+        # (three standard deviations of their difference under a V2X link's noise)
+        self.gap_slack = gap_slack
         self.s_wait = np.full(len(s_stop), math.inf) if s_wait is None else s_wait  # [m] per path, inf: none
         # path id -> ([m] its waiting position, the approach lanes SUMO's internal junction there waits for)
         self.waits = dict(waits or {})
@@ -317,7 +320,7 @@ class SafetyFilter:
             if vid not in decisions.accel or not chosen[r]:
                 continue
             length = world.length_of(lead.vehicle, self.model.vehicle_length)  # [m] the leader's body
-            gap = lead.gap - length - st.safety_margin  # [m] bumper to bumper, less margin
+            gap = lead.gap - length - st.safety_margin - self.gap_slack  # [m] bumper to bumper, less margin
             lead_brake = min(self._brake(world, lead.vehicle), floors.get(world.ids[lead.vehicle], 0.0))  # [m/s^2]
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self._brake(world, k), self.period,
                                        -lead_brake)

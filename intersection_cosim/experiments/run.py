@@ -335,7 +335,8 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
     bodies = tuple(sorted({(vt.length or m.vehicle_length, vt.width or m.vehicle_width) for vt in scn.vtypes}))  # [m]
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
-                                    etm=scn.controller.etm, bodies=bodies))
+                                    etm=scn.controller.etm, bodies=bodies,
+                                    position_noise=scn.v2x.position_noise if scn.v2x.enabled else 0.0))
     scheduler = NetworkScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
     if gui is not None and not scn.network.generated:  # look at the managed junction, not the origin
         gui = dataclasses.replace(gui, centre=junction_centre(inputs.net, scn.network.junctions[0]))

@@ -132,6 +132,28 @@ def test_a_follower_is_capped_at_krauss_safe_speed(paths, movements, conflict_ta
     assert d.accel["lead"] == 0.0 and held == frozenset()  # behind a leader is not held at a crossing
 
 
+def test_the_gap_to_a_leader_allows_for_the_links_position_noise(paths, movements, conflict_table):
+    """Under 0.2 m of V2X position noise a follower crawled into its standing leader inside the
+    junction (fokr38, 0.2 and 0.7 m/s): the gap it counts on loses 3 sqrt(2) sigma, the error of
+    two noisy positions."""
+    lane = "south_middle_straight_middle"
+    s_stop = paths[lane].s_stop
+    world = make_world(paths, 0.0, [("lead", lane, s_stop - 30.0, 0.0), ("follow", lane, s_stop - 37.0, 2.0)])
+    plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(PROBLEM.steps), PROBLEM.dt)
+             for k, v in enumerate(world.ids)}
+    b, tau = -PROBLEM.a_min, 0.1
+    caps = []
+    for slack in (0.0, 3.0 * np.sqrt(2.0) * 0.2):
+        f = SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, 0.1, gap_slack=slack)
+        d = Decisions(accel={"lead": 0.0, "follow": 2.0})
+        f.apply(world, _relations(world, movements, conflict_table), plans, {}, d)
+        gap = 7.0 - MODEL.vehicle_length - GS.safety_margin - slack  # [m]
+        v_safe = -b * tau + np.sqrt((b * tau) ** 2 + 2 * b * gap)
+        assert d.accel["follow"] == pytest.approx(min(2.0, (v_safe - 2.0) / tau))
+        caps.append(d.accel["follow"])
+    assert caps[1] < caps[0] - 1.0  # [m/s^2]
+
+
 def _chord_heading(path, s, length):
     """[rad] SUMO's heading of a vehicle with its front at ``s`` [m]: rear point to front point."""
     d = path.point_at(s) - path.point_at(s - length)

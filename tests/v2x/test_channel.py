@@ -148,6 +148,36 @@ def test_a_braking_the_controller_commanded_is_plausible_beyond_max_decel(moveme
     assert ch.decel_bound("A", 0.0, 0.5) == pytest.approx(7.0) and ch.decel_bound("A", 5.0, 5.1) == pytest.approx(4.5)
 
 
+def test_a_lost_release_is_sent_again_until_it_arrives(movements):
+    """The controller lets a vehicle go once; with that command lost it kept its last
+    acceleration on the exit lane for good. The channel sends the release again each period."""
+    ch = Channel(V2XSettings(loss=0.6, plausibility=False), movements, PERIOD, seed=3)
+    drive(ch, movements, [k * PERIOD for k in range(20)])  # known to the controller
+    assert "A" in ch.tracks
+    ch.send(Decisions(release=["A"]), 1.9)
+    released_at, sent = None, []
+    for k in range(20, 60):
+        drive(ch, movements, [k * PERIOD])  # it keeps sending its state
+        got = ch.deliver(k * PERIOD)
+        if got is not None and "A" in got.release and released_at is None:
+            released_at = len(sent)
+        sent.append(ch.counts["commands_sent"])
+        ch.send(Decisions(), k * PERIOD)  # the controller sends it nothing more
+    assert released_at is not None and released_at >= 1  # this seed loses the first release
+    assert sent[-1] == sent[released_at] < 40  # nothing sent once one got through
+    # a vehicle the controller commands again (the next junction) is not released behind its back
+    ch2 = Channel(V2XSettings(loss=0.5, plausibility=False), movements, PERIOD, seed=3)
+    drive(ch2, movements, [k * PERIOD for k in range(20)])
+    for k in range(20, 60):  # until a release is lost
+        ch2.send(Decisions(release=["A"]), k * PERIOD)
+        if ch2.counts["commands_lost"]:
+            break
+    before = ch2.counts["commands_sent"]
+    ch2.send(Decisions(accel={"A": 1.0}), 5.0)
+    ch2.send(Decisions(), 5.1)
+    assert ch2.counts["commands_sent"] == before + 1  # the acceleration only, no release after it
+
+
 def test_position_offset_attack_is_rejected_and_predicted_conservatively(movements):
     attack = AttackSettings(vehicle="A", kind="position_offset", value=5.0, begin=0.5, end=0.8)
     ch = Channel(V2XSettings(attack=(attack,)), movements, PERIOD, seed=1)
