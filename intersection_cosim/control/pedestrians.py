@@ -21,13 +21,14 @@ cover, within ``pedestrian_time_gap`` of when the vehicle would be there:
   clear it), else stops ``pedestrian_margin`` before the crossing; it brakes from the last moment
   at which ``brake_from`` [m/s^2] still stops it there after one more period at full
   acceleration (a vehicle that started braking at the first sight of a person far ahead crawled
-  through the junction for 40 s); if it can no longer stop before the crossing within its own
-  braking but a person may be on its stretch while it is (the windows overlap, without the time
-  gap), it makes an emergency stop at the crossing's edge, or at most ``EDGE_DEPTH`` into its
-  zone (at most
-  its vType's emergencyDecel: a vehicle SUMO inserts a few metres before a crossing that a person
-  is walking over, Ingolstadt's junction 335525545); if it cannot stop even so, it drives on
-  (braking then would leave it standing on the crossing).
+  through the junction for 40 s);
+* if it can no longer stop before the crossing within its own braking but a person may be on
+  its stretch while it is (the windows overlap, without the time gap), it makes an emergency stop
+  at up to its vType's emergencyDecel (a vehicle SUMO inserts a few metres before a crossing a
+  person walks over: Ingolstadt's junction 335525545) at the crossing's edge, or at most
+  ``EDGE_DEPTH`` into its zone; a vehicle already in that edge with such a person stops there
+  (a V2X link's position noise reads one standing at the edge as inside); otherwise, and deeper
+  in the zone, it drives on (braking then would leave it standing on the crossing).
 
 Every exit lane the vehicle may still take counts. The caps go to the safety filter as holds, as
 the exit-room and lane speed caps do (control/safety.py), so the crossings see the braking
