@@ -161,14 +161,15 @@ def _zone_hold(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | N
 def _edge_stop(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, settings: SafetySettings,
                speed_floor: float, limits: tuple[float, float, float], period: float) -> float | None:
     """[m/s^2] vehicle k's emergency stop (within ``limits[2]``) for a person in front of it
-    (:func:`_in_front`): at the crossing's edge, or where it cannot stop there, at most
+    (:func:`_conflict` without the time gap): at the crossing's edge, or where it cannot stop there, at most
     ``EDGE_DEPTH`` into its zone; one already in that edge stops now (``period`` [s]). None (it
     drives on) without such a person, deeper in the zone, or if it cannot stop even so. The edge
     is for a vehicle that crept a little into the zone or a position that noise puts there (a V2X
     link's 0.2 m position noise read vehicles standing at the edge as inside, and they drove into
     the person; aiming for the edge's far end, one crept on and noise put it past)."""
     s, v = float(world.s[k]), float(world.v[k])
-    if s >= zone.zone_in + EDGE_DEPTH or not _in_front(world, k, zone, walkers, plan, settings, speed_floor, limits[1]):
+    if s >= zone.zone_in + EDGE_DEPTH or not _conflict(world, k, zone, walkers, plan, settings, speed_floor, limits[1],
+                                                       0.0):
         return None
     if s >= zone.zone_in:  # at the edge: it stops now (standing, it stays), it does not creep on
         return max(limits[2], -v / period)
@@ -180,29 +181,18 @@ def _edge_stop(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | N
 
 
 def _conflict(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, settings: SafetySettings,
-              speed_floor: float, accel: float) -> bool:
-    """Whether a walker on ``zone``'s crossing may be on the vehicle's stretch within
-    ``pedestrian_time_gap`` of vehicle k's time over it (:func:`vehicle_window`)."""
+              speed_floor: float, accel: float, gap: float | None = None) -> bool:
+    """Whether a walker on ``zone``'s crossing may be on the vehicle's stretch within ``gap`` [s]
+    (default ``pedestrian_time_gap``) of vehicle k's time over it (:func:`vehicle_window`); with
+    ``gap`` 0, whether it may be there while the vehicle is: a person the vehicle would run into,
+    not one the gap alone counts."""
     if not walkers:
         return False
     t_in, t_out = vehicle_window(world, k, zone, plan, speed_floor, accel)
-    gap = settings.pedestrian_time_gap  # [s]
+    gap = settings.pedestrian_time_gap if gap is None else gap  # [s]
     for w in walkers:
         window = walker_window(w, zone.span, settings)
         if window is not None and window[0] < t_out + gap and t_in < window[1] + gap:
-            return True
-    return False
-
-
-def _in_front(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, settings: SafetySettings,
-              speed_floor: float, accel: float) -> bool:
-    """Whether a walker may be on vehicle k's stretch of ``zone``'s crossing while the vehicle's
-    front is in the zone (:func:`vehicle_window`; the windows overlap, without the time gap): a
-    person the vehicle would run into, not one the gap alone counts."""
-    t_in, t_out = vehicle_window(world, k, zone, plan, speed_floor, accel)
-    for w in walkers:
-        window = walker_window(w, zone.span, settings)
-        if window is not None and window[0] < t_out and t_in < window[1]:
             return True
     return False
 
