@@ -55,6 +55,7 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Mapping, NamedTuple
 
@@ -220,6 +221,7 @@ class SafetyFilter:
         by every other crossing it now blocks in the same step.
         """
         self.events, self._games = set(), games
+        relations = self._widened(relations)
         rows = relations.rows
         brakes = self._brakes(world)
         for vid, floor in (floors or {}).items():
@@ -250,6 +252,18 @@ class SafetyFilter:
                 self._guard(world, relations, pairs.at(guarded[n]), plans, cap, clear,
                             None if occ is None else tuple(float(x[n]) for x in occ))
         return self._enforce(decisions, cap, leader_cap, clear, brakes)
+
+    def _widened(self, relations: Relations) -> Relations:
+        """``relations`` with every crossing zone widened by ``gap_slack`` [m] at both ends: under a
+        link's position noise a vehicle read just short of another's zone may be in it (fokr38 over a
+        noisy link: one stopped at the edge of a crossing, read outside it, and the other drove into
+        it)."""
+        pairs = relations.pairs
+        if self.gap_slack <= 0.0 or not len(pairs):
+            return relations
+        widen = np.array([-self.gap_slack, self.gap_slack])  # [m]
+        return dataclasses.replace(relations, pairs=dataclasses.replace(
+            pairs, zone_i=pairs.zone_i + widen, zone_j=pairs.zone_j + widen))
 
     def _brake(self, world: World, k: int) -> float:
         """[m/s^2] (< 0) the hardest braking the filter counts on for vehicle k: the model's

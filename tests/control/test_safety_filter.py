@@ -53,6 +53,27 @@ def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, mo
     assert held == {"S"} and f.filtered == 1 and f.cleared == 0
 
 
+def test_under_position_noise_a_yielding_vehicle_stops_short_of_its_zone_by_the_slack(paths, movements,
+                                                                                       conflict_table):
+    """The same crossing as above with 0.85 m of gap slack (3 sqrt(2) x 0.2 m of V2X noise): the
+    zones widen by it at both ends, so the yielding vehicle stops that much earlier (fokr38 over
+    a noisy link: one stopped at the edge of another's zone, read outside it, and was hit)."""
+    t = conflict_table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    s_l, s_s = t.zone_in[p, q] - 16.0, t.zone_in[q, p] - 17.0  # [m]
+    world = make_world(paths, 0.0, [("L", LEFT, s_l, 8.0), ("S", STRAIGHT, s_s, 8.0)])
+    hold = np.zeros(PROBLEM.steps)
+    plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
+    slack = 3.0 * np.sqrt(2.0) * 0.2  # [m]
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, gap_slack=slack)
+    d = Decisions(accel={"L": 0.0, "S": 0.0})
+    relations = _relations(world, movements, t)
+    f.apply(world, relations, plans, {}, d)
+    to_zone = float(t.zone_in[q, p]) - slack - GS.safety_margin - s_s  # [m]
+    assert d.accel["L"] == 0.0 and d.accel["S"] == pytest.approx(-8.0 ** 2 / (2 * to_zone), rel=1e-9)
+    assert relations.pairs.zone_i[0, 0] == pytest.approx(_relations(world, movements, t).pairs.zone_i[0, 0])  # not mutated
+
+
 def test_the_entry_queue_and_the_box_rule(paths, movements, conflict_table):
     """B entered the junction first and stands inside the crossing; its own plan waits. A,
     ranked lower (it entered later), yields before its zone; then B must clear the crossing:
