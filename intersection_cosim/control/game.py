@@ -338,8 +338,10 @@ class GameController:
                                    self.settings.safety, self.model.tcp_speed_floor,
                                    lambda k: self._limits(world, k), game.comfort_brake, period, leader_of)]
         self.pedestrian_holds += len(others[0])
-        index = {vid: k for k, vid in enumerate(world.ids)}
-        floors = {vid: cap for vid, cap in others[0].items() if cap < self._limits(world, index[vid])[0]}
+        floors = {}
+        if others[0]:  # the holds harder than the vehicle's own braking: emergency stops
+            index = {vid: k for k, vid in enumerate(world.ids)}
+            floors = {vid: cap for vid, cap in others[0].items() if cap < self._limits(world, index[vid])[0]}
         if self.model.lane_speed_limits:
             others.append(lane_speed_holds(world, self.ctx.movements, self.memory.options, self.model.lane_speed_decel,
                                            period))

@@ -228,7 +228,7 @@ class SafetyFilter:
             brakes[vid] = min(floor, brakes.get(vid, self.problem.a_min))
         chosen = tuple(rows.option[r] == options.get(world.ids[rows.vehicle[r]], rows.option[r])
                        for r in range(len(rows)))
-        cap = self._leader_caps(world, relations, chosen, decisions, floors or {})
+        cap = self._leader_caps(world, relations, chosen, decisions, brakes)
         leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
         for vid, limit in (holds or {}).items():
             if vid in decisions.accel:
@@ -321,11 +321,11 @@ class SafetyFilter:
         return ~(apart & ok), (np.where(ok, in_i, np.nan), out_i, in_j, out_j)
 
     def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions,
-                     floors: Mapping[str, float]) -> dict[str, float]:
+                     brakes: Mapping[str, float]) -> dict[str, float]:
         """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed behind a leader
-        braking as hard as it may (harder in an emergency stop: ``floors`` [m/s^2], see :meth:`apply`;
-        a follower that counted on the leader's own braking stopped 0.09 m behind one that stopped
-        at 7.7 m/s^2 for a person)."""
+        braking as hard as it may this step (``brakes`` [m/s^2] of :meth:`apply`, an emergency stop's
+        included; a follower that counted on the leader's own braking stopped 0.09 m behind one that
+        stopped at 7.7 m/s^2 for a person)."""
         st, rows = self.settings, relations.rows
         cap: dict[str, float] = {}
         for r, lead in relations.leaders.items():
@@ -335,7 +335,7 @@ class SafetyFilter:
                 continue
             length = world.length_of(lead.vehicle, self.model.vehicle_length)  # [m] the leader's body
             gap = lead.gap - length - st.safety_margin - self.gap_slack  # [m] bumper to bumper, less margin
-            lead_brake = min(self._brake(world, lead.vehicle), floors.get(world.ids[lead.vehicle], 0.0))  # [m/s^2]
+            lead_brake = brakes.get(world.ids[lead.vehicle], self.problem.a_min)  # [m/s^2]
             v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self._brake(world, k), self.period,
                                        -lead_brake)
             cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k])) / self.period)
