@@ -32,7 +32,10 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   with tau = the control period, so it can always stop behind a leader that brakes as hard as it
   can. Every braking limit the filter counts on (b here, b_L the leader's, and every "can it
   still stop" below) is |a_min|, or a vehicle's own vType decel where that is weaker (a bus
-  braking at 3 m/s^2 is guarded as one).
+  braking at 3 m/s^2 is guarded as one). A follower whose cap needs more than that (its leader
+  makes an emergency stop, control/pedestrians.py) may brake beyond it, up to its vType's
+  emergencyDecel, only as hard as Krauss' safe speed for that braking needs (as SUMO's own
+  drivers do); the vehicles behind it then count on that braking.
 * **Humans.** A human driver (``World.human``) will not yield: its plan is the prediction of
   :func:`~intersection_cosim.models.prediction.human_accelerations` (its present acceleration
   clipped to [0, a_max], never braking). Before it enters the junction it ranks ahead of every AV
@@ -228,7 +231,11 @@ class SafetyFilter:
             brakes[vid] = min(floor, brakes.get(vid, self.problem.a_min))
         chosen = tuple(rows.option[r] == options.get(world.ids[rows.vehicle[r]], rows.option[r])
                        for r in range(len(rows)))
-        cap = self._leader_caps(world, relations, chosen, decisions, brakes)
+        cap, harder = self._leader_caps(world, relations, chosen, decisions, brakes)
+        if harder:  # followers that must brake harder than their own braking; theirs count on it
+            brakes.update(harder)
+            cap, harder = self._leader_caps(world, relations, chosen, decisions, brakes)
+            brakes.update(harder)
         leader_cap = dict(cap)  # [m/s^2] the caps behind a leader alone
         for vid, limit in (holds or {}).items():
             if vid in decisions.accel:
@@ -321,13 +328,17 @@ class SafetyFilter:
         return ~(apart & ok), (np.where(ok, in_i, np.nan), out_i, in_j, out_j)
 
     def _leader_caps(self, world: World, relations: Relations, chosen, decisions: Decisions,
-                     brakes: Mapping[str, float]) -> dict[str, float]:
+                     brakes: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float]]:
         """[m/s^2] per follower, the acceleration that keeps it at Krauss' safe speed behind a leader
         braking as hard as it may this step (``brakes`` [m/s^2] of :meth:`apply`, an emergency stop's
         included; a follower that counted on the leader's own braking stopped 0.09 m behind one that
-        stopped at 7.7 m/s^2 for a person)."""
+        stopped at 7.7 m/s^2 for a person). Second, per follower whose cap needs more than its
+        braking in ``brakes``: the braking [m/s^2] (< 0) it may use instead, the least that keeps
+        it at Krauss' safe speed for its emergency braking (its vType's emergencyDecel), at most
+        that (as SUMO's drivers brake beyond their decel only when they must)."""
         st, rows = self.settings, relations.rows
         cap: dict[str, float] = {}
+        harder: dict[str, float] = {}
         for r, lead in relations.leaders.items():
             k = int(rows.vehicle[r])
             vid = world.ids[k]
@@ -336,10 +347,14 @@ class SafetyFilter:
             length = world.length_of(lead.vehicle, self.model.vehicle_length)  # [m] the leader's body
             gap = lead.gap - length - st.safety_margin - self.gap_slack  # [m] bumper to bumper, less margin
             lead_brake = brakes.get(world.ids[lead.vehicle], self.problem.a_min)  # [m/s^2]
-            v_safe = krauss_safe_speed(gap, float(world.v[lead.vehicle]), -self._brake(world, k), self.period,
-                                       -lead_brake)
-            cap[vid] = min(cap.get(vid, math.inf), (v_safe - float(world.v[k])) / self.period)
-        return cap
+            v, v_lead = float(world.v[k]), float(world.v[lead.vehicle])  # [m/s]
+            limit = (krauss_safe_speed(gap, v_lead, -self._brake(world, k), self.period, -lead_brake) - v) / self.period
+            cap[vid] = min(cap.get(vid, math.inf), limit)
+            own = brakes.get(vid, self.problem.a_min)  # [m/s^2]
+            if limit < own and (em := world.emergency_brake(k, own)) < own:
+                need = (krauss_safe_speed(gap, v_lead, -em, self.period, -lead_brake) - v) / self.period
+                harder[vid] = min(harder.get(vid, own), max(em, need))
+        return cap, {vid: b for vid, b in harder.items() if b < brakes.get(vid, self.problem.a_min)}
 
     def _enforce(self, decisions: Decisions, cap: dict[str, float], leader_cap: dict[str, float],
                  clear: set[str], brakes: Mapping[str, float]) -> frozenset[str]:

@@ -153,6 +153,42 @@ def test_a_follower_is_capped_at_krauss_safe_speed(paths, movements, conflict_ta
     assert d.accel["lead"] == 0.0 and held == frozenset()  # behind a leader is not held at a crossing
 
 
+def test_behind_an_emergency_stop_a_follower_brakes_beyond_its_decel_only_as_hard_as_it_must(
+        paths, movements, conflict_table):
+    """A leader at 6 m/s makes an emergency stop at 8 m/s^2 (a person in its way: ``floors``); its
+    follower, 9 m/s and 2.5 m behind it, cannot stay at Krauss' safe speed with its own 4 m/s^2
+    (it would need -32). It brakes beyond its decel, up to its vType's emergencyDecel (9), only
+    as hard as Krauss' safe speed for that braking needs (-6.1); without an emergencyDecel it
+    keeps its own 4 m/s^2. A follower at 3 m/s, whose own braking suffices, is not touched."""
+    lane = "south_middle_straight_middle"
+    s_stop = paths[lane].s_stop
+    b, b_em, b_lead, tau = 4.0, 9.0, 8.0, 0.1  # [m/s^2], [s]
+    hold = np.zeros(PROBLEM.steps)
+    out = {}
+    for name, v_follow, emergency in (("needs more", 9.0, True), ("needs more, no emergencyDecel", 9.0, False),
+                                      ("own braking suffices", 3.0, True)):
+        world = make_world(paths, 0.0, [("lead", lane, s_stop - 30.0, 6.0), ("follow", lane, s_stop - 38.0, v_follow)])
+        world = dataclasses.replace(world, decel=np.array([b, b]), accel=np.array([2.5, 2.5]),
+                                    emergency_decel=np.array([b_em, b_em]) if emergency else None)
+        plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), hold, PROBLEM.dt)
+                 for k, v in enumerate(world.ids)}
+        d = Decisions(accel={"lead": -b_lead, "follow": 0.0})
+        SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, tau).apply(
+            world, _relations(world, movements, conflict_table), plans, {}, d, floors={"lead": -b_lead})
+        out[name] = d.accel["follow"]
+    gap = 8.0 - MODEL.vehicle_length - GS.safety_margin  # [m] bumper to bumper, less the margin
+
+    def v_safe(decel):  # [m/s] Krauss behind a leader braking at b_lead
+        return -decel * tau + np.sqrt((decel * tau) ** 2 + decel / b_lead * 6.0 ** 2 + 2 * decel * gap)
+
+    assert (v_safe(b) - 9.0) / tau < -30.0  # its own braking is not enough
+    need = (v_safe(b_em) - 9.0) / tau  # [m/s^2]
+    assert -b_em < need < -b - 1.0
+    assert out["needs more"] == pytest.approx(need)
+    assert out["needs more, no emergencyDecel"] == pytest.approx(-b)
+    assert out["own braking suffices"] >= -b
+
+
 def test_the_gap_to_a_leader_allows_for_the_links_position_noise(paths, movements, conflict_table):
     """Under 0.2 m of V2X position noise a follower crawled into its standing leader inside the
     junction (fokr38, 0.2 and 0.7 m/s): the gap it counts on loses 3 sqrt(2) sigma, the error of
