@@ -280,14 +280,18 @@ def _finish(game: EquilibriumSolve, plans, residuals, status, t0, history, known
 
 
 def solo_response(problem: Problem, settings: GameSettings | None = None,
-                  model_settings: ModelSettings | None = None, warm_start: WarmStart = None) -> GameResult:
+                  model_settings: ModelSettings | None = None, warm_start: WarmStart = None,
+                  own_hessian: bool = False) -> GameResult:
     """:func:`nash_equilibrium` of a one-player problem without interactions (a vehicle in no
     game), without the machinery of an n-player solve: the same QPs in the same workspace, in
     the same order, and the same result, at a fraction of the Python overhead.
 
     The player's best response is its own optimal control against its fixed leader prediction
     (no partner moves, so the iteration is ``nash_max_iter`` SQP passes of one player). Any other
-    problem is handed to :func:`nash_equilibrium`. Never raises on numerical trouble.
+    problem is handed to :func:`nash_equilibrium`. With ``own_hessian`` every QP installs the
+    player's own model Hessian and every iteration builds a fresh one (as
+    :mod:`~intersection_cosim.games.solo_batch`, whose small batches come here). Never raises
+    on numerical trouble.
     """
     gs = settings or GameSettings()
     ms = model_settings or ModelSettings()
@@ -304,7 +308,7 @@ def solo_response(problem: Problem, settings: GameSettings | None = None,
         warm = warm_list(warm_start, 1)[0]
         if warm is None:  # the decoupled start of Eq. 33: the problem without the player's leader terms
             dec = PlayerObjective(problem.decoupled(), 0, gs, ms)
-            out = sqp_best_response(dec, initial_accelerations(dec, None, gs), ws, gs, 1)
+            out = sqp_best_response(dec, initial_accelerations(dec, None, gs), ws, gs, 1, own_hessian=own_hessian)
             qps[0] += out.qp_count
             plan = obj.plan(out.a, out.duals)
         else:
@@ -312,7 +316,7 @@ def solo_response(problem: Problem, settings: GameSettings | None = None,
             if duals is not None and duals.shape != (2 * gs.problem.steps,):
                 duals = None
             plan = obj.plan(initial_accelerations(obj, warm, gs), duals)
-        plan, residuals, cost = _solo_iterate(obj, ws, gs, plan, qps)
+        plan, residuals, cost = _solo_iterate(obj, ws, gs, plan, qps, own_hessian)
         if cost is None:  # Jacobi: nash_equilibrium evaluates the final cost afresh
             obj.set_others((plan,))
             cost = obj.cost(plan.accelerations)
@@ -326,9 +330,10 @@ def solo_response(problem: Problem, settings: GameSettings | None = None,
         return failure_result(problem, gs, "nash", t0, f"{type(exc).__name__}: {exc}", qps[0])
 
 
-def _solo_iterate(obj: PlayerObjective, ws, gs: GameSettings, plan: Plan, qps: list[int]):
+def _solo_iterate(obj: PlayerObjective, ws, gs: GameSettings, plan: Plan, qps: list[int], own_hessian: bool = False):
     """:func:`_iterate` for one player: returns (plan, [(residual [m/s^2], converged)], its cost
-    or None for the Jacobi scheme); adds the QPs solved to ``qps[0]``."""
+    or None for the Jacobi scheme); adds the QPs solved to ``qps[0]``. ``own_hessian``:
+    :func:`solo_response`'s."""
     sv = gs.solver
     delta, hessian = sv.trust_region, None
     residuals = []
@@ -336,10 +341,10 @@ def _solo_iterate(obj: PlayerObjective, ws, gs: GameSettings, plan: Plan, qps: l
         old = plan.accelerations
         obj.set_others((plan,))
         H = None
-        if hessian is not None and not np.abs(old - hessian[1]).max() > sv.hessian_refresh:
+        if not own_hessian and hessian is not None and not np.abs(old - hessian[1]).max() > sv.hessian_refresh:
             H = hessian[0]  # as EquilibriumSolve._hessian: the plan moved less than hessian_refresh
         out = sqp_best_response(obj, old, ws, gs, sv.sqp_steps_per_iteration, trust_region=delta,
-                                duals=plan.duals, hessian=H)
+                                duals=plan.duals, hessian=H, own_hessian=own_hessian)
         qps[0] += out.qp_count
         delta = out.trust_region
         gain = (out.cost0 - out.cost) / max(abs(out.cost0), 1e-9)

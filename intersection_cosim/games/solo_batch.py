@@ -19,7 +19,11 @@ which the small comfort terms pass whatever their weight), and with a capped SQP
 is the plan (on random solo problems up to 30 % above the optimum of an exact QP).
 
 Problems that are not a single player without interactions, or whose player crosses human
-drivers (``Player.crossers``), go to ``solo_response`` one by one. Never raises on numerical
+drivers (``Player.crossers``), go to ``solo_response`` one by one. So do the problems of a
+batch smaller than ``SMALL_BATCH``, with ``own_hessian`` (the batch's two differences above):
+the stacked arrays cost a fixed ~0.3 ms a batch, more than they save on a few vehicles
+(``scripts/bench_solo_batch.py``: one by one is faster up to five problems); the answers agree to
+rounding (``tests/games/test_solo_batch.py``). Never raises on numerical
 trouble: a vehicle whose QP or cost fails gets the comfortable-braking plan with status
 "solver failure", and the other vehicles are unaffected.
 """
@@ -44,6 +48,8 @@ from intersection_cosim.games.sqp import new_radius
 from intersection_cosim.models.settings import ModelSettings
 
 _local = threading.local()
+
+SMALL_BATCH = 6  # [-] fewer batchable problems than this are solved one by one (module docstring)
 
 
 def _scratch(name: str, shape: tuple[int, int, int]) -> np.ndarray:
@@ -83,7 +89,10 @@ def solo_responses(problems: Sequence[Problem], settings: GameSettings | None = 
             rows.append(i)
         else:  # validation failures and other problems: the one-by-one solver says why
             out[i] = solo_response(problem, gs, ms, warm_start=warm[i])
-    if rows:
+    if 0 < len(rows) < SMALL_BATCH:
+        for i in rows:
+            out[i] = solo_response(problems[i], gs, ms, warm_start=warm[i], own_hessian=True)
+    elif rows:
         t0 = time.perf_counter()
         batch = SoloBatch([problems[i].players[0] for i in rows], gs, ms)
         results = batch.solve([warm_list(warm[i], 1)[0] for i in rows])

@@ -91,14 +91,16 @@ class _Region(NamedTuple):
 def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs: GameSettings,
                       max_iter: int, trust_region: float | None = None,
                       duals: np.ndarray | None = None,
-                      hessian: np.ndarray | None = None) -> SQPOutcome:
+                      hessian: np.ndarray | None = None, own_hessian: bool = False) -> SQPOutcome:
     """Run at most ``max_iter`` SQP iterations from the feasible ``a0`` (module docstring).
 
     ``hessian``: a model Hessian computed near ``a0`` to use in the first iteration instead of
     a fresh one (the gradient is always exact; the caller decides when the curvature is still
     representative, see ``SolverSettings.hessian_refresh``). Raises :class:`SolverFailure` when
     OSQP does not solve a QP or a value is not finite. A player with limits of its own
-    (``obj.limited``) plans within them.
+    (``obj.limited``) plans within them. ``own_hessian``: every QP installs this model's Hessian
+    (the workspace never keeps the one installed before, within ``hessian_reuse_tol``; as
+    :mod:`~intersection_cosim.games.solo_batch` does).
     """
     if obj.limited:
         gs = dataclasses.replace(gs, problem=obj.gs.problem)
@@ -121,7 +123,7 @@ def sqp_best_response(obj: PlayerObjective, a0: np.ndarray, ws: QPWorkspace, gs:
         if it > 1:
             g, H = obj.model(a)
             fresh = (H, a)
-        region = _trust_region_step(obj, ws, gs, box, a, c, g, H, delta, duals, exact)
+        region = _trust_region_step(obj, ws, gs, box, a, c, g, H, delta, duals, exact, not own_hessian)
         duals = None
         a, c, delta, converged = region.a, region.cost, region.delta, region.converged
         qp, y, x_qp = qp + region.qps, region.sol, region.x_qp
@@ -140,14 +142,15 @@ def _box(obj: PlayerObjective, ws: QPWorkspace) -> _Box:
 
 
 def _solve_qp(obj: PlayerObjective, ws: QPWorkspace, gs: GameSettings, box: _Box, a: np.ndarray, g, H,
-              delta: float, duals):
+              delta: float, duals, reuse: bool = True):
     """OSQP's solution of the model QP inside |x - a| <= ``delta``, and its plan projected onto
-    the exact feasible set (ADMM solutions violate bounds by up to ~eps)."""
+    the exact feasible set (ADMM solutions violate bounds by up to ~eps); ``reuse``: the
+    workspace may keep its installed Hessian (:meth:`QPWorkspace.solve`)."""
     n = obj.n
     a_min, a_max = gs.problem.a_min, gs.problem.a_max
     np.maximum(a - delta, a_min, out=box.l[:n])
     np.minimum(a + delta, a_max, out=box.u[:n])
-    sol = ws.solve(H, g, a, box.l, box.u, y0=duals)
+    sol = ws.solve(H, g, a, box.l, box.u, y0=duals, reuse=reuse)
     if not sol.ok:
         raise SolverFailure(f"OSQP: {sol.status}")
     x_qp = sol.x
@@ -160,13 +163,13 @@ def _solve_qp(obj: PlayerObjective, ws: QPWorkspace, gs: GameSettings, box: _Box
 
 
 def _trust_region_step(obj: PlayerObjective, ws: QPWorkspace, gs: GameSettings, box: _Box, a: np.ndarray,
-                       c: float, g, H, delta: float, duals, exact: bool) -> _Region:
+                       c: float, g, H, delta: float, duals, exact: bool, reuse: bool = True) -> _Region:
     """Solve the model QP, shrinking the region until a step lowers the true cost enough, the
     model is stationary, or the region falls below ``trust_region_min``."""
     sv = gs.solver
     qps = 0
     while True:
-        sol, x_qp = _solve_qp(obj, ws, gs, box, a, g, H, delta, duals)
+        sol, x_qp = _solve_qp(obj, ws, gs, box, a, g, H, delta, duals, reuse)
         qps += 1
         duals = None
         d = x_qp - a

@@ -5,12 +5,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from intersection_cosim.games.nash import solo_response
 from intersection_cosim.games.objective import PlayerObjective
 from intersection_cosim.games.problem import Plan, Player, Problem
 from intersection_cosim.games.qp import reset_workspaces
 from intersection_cosim.games.settings import GameSettings
-from intersection_cosim.games.solo_batch import batchable, solo_responses
+from intersection_cosim.games.nash import solo_response, warm_list
+from intersection_cosim.games.solo_batch import SMALL_BATCH, SoloBatch, batchable, solo_responses
 from intersection_cosim.games.sqp import initial_accelerations
 from intersection_cosim.models.settings import ModelSettings
 
@@ -44,23 +44,39 @@ def _problems(count: int, seed: int = 3):
 
 
 @pytest.mark.parametrize("max_iter", [1, 3])
-def test_a_batch_of_one_is_solo_response(max_iter):
-    """Alone in the batch and from the same fresh workspace, each problem gets solo_response's
-    plan, cost, status and QP count (one iteration: the same QPs in the same order; with
-    hessian_reuse_tol 0, as the batch never keeps an installed P for a new model)."""
-    gs = _settings(max_iter, hessian_reuse_tol=0.0)
+def test_a_batch_of_one_is_solo_response_with_its_own_hessian(max_iter):
+    """Alone in the batch and from the same fresh workspace, each problem gets the plan, cost,
+    status and QP count of solo_response with ``own_hessian`` (the same QPs in the same order,
+    each installing its own model Hessian, a fresh one every iteration), to rounding."""
+    gs = _settings(max_iter)
     problems, warms = _problems(40)
     worst = 0.0
     for problem, warm in zip(problems, warms):
         reset_workspaces()
-        one = solo_response(problem, gs, MS, warm_start=warm)
+        one = solo_response(problem, gs, MS, warm_start=warm, own_hessian=True)
         reset_workspaces()
-        (batch,) = solo_responses([problem], gs, MS, [warm])
-        assert batch.status == one.status and batch.qp_count == one.qp_count
-        assert batch.costs[0] == pytest.approx(one.costs[0], rel=1e-9 if max_iter == 1 else 1e-3, abs=1e-12)
-        worst = max(worst, float(np.abs(batch.plans[0].accelerations - one.plans[0].accelerations).max()))
-    # max_iter 3: the batch builds a fresh model Hessian every iteration (solo_response may reuse it)
-    assert worst < (1e-9 if max_iter == 1 else 0.05)
+        ((plan, cost, residuals, qps, failure),) = SoloBatch([problem.players[0]], gs, MS).solve([warm_list(warm, 1)[0]])
+        assert failure is None and qps == one.qp_count and len(residuals) == one.iterations
+        assert cost == pytest.approx(one.costs[0], rel=1e-9, abs=1e-12)
+        worst = max(worst, float(np.abs(plan.accelerations - one.plans[0].accelerations).max()))
+    assert worst < 1e-9  # [m/s^2]
+
+
+def test_small_batches_go_one_by_one_and_agree_with_the_batch():
+    """Fewer than SMALL_BATCH problems are solved by solo_response (own Hessian): 12 problems in
+    batches of three get the answers of one batch of twelve, within OSQP's tolerance (a QP
+    without duals of its own warm-starts from the slot's last one, solved in another order)."""
+    gs = _settings(1)
+    problems, warms = _problems(12, seed=13)
+    assert 3 < SMALL_BATCH <= 12
+    reset_workspaces()
+    whole = solo_responses(problems, gs, MS, warms)
+    reset_workspaces()
+    parts = [r for i in range(0, 12, 3) for r in solo_responses(problems[i:i + 3], gs, MS, warms[i:i + 3])]
+    for a, b in zip(whole, parts):
+        assert a.status == b.status and a.qp_count == b.qp_count
+        np.testing.assert_allclose(a.plans[0].accelerations, b.plans[0].accelerations, atol=1e-3)  # [m/s^2]
+        assert a.costs[0] == pytest.approx(b.costs[0], rel=1e-4, abs=1e-9)
 
 
 def test_every_plan_of_a_batch_is_feasible_and_no_worse_than_its_start():
