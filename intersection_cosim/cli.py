@@ -116,6 +116,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--force", action="store_true", help="replace the finished run in --out")
     run.add_argument("--seed", type=int, help="random seed (overrides [scenario] seed)")
     run.add_argument("--budget-ms", type=_positive_float, help="[ms] wall-time budget per control step")
+    run.add_argument("--work-clock", type=_positive_float, metavar="MS",
+                     help="[ms] keep the budget by a work clock: each QP solve costs MS (the same run on any machine)")
     run.add_argument("--no-etm", action="store_true", help="play a game for every conflicting pair")
     run.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     run.add_argument("--gui", action="store_true",
@@ -154,7 +156,10 @@ def _add_compare(sub) -> None:
     compare.add_argument("--seeds", default="1-5", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: 1-5)")
     compare.add_argument("--duration", type=_positive_float, help="[s] override every scenario's demand window")
     compare.add_argument("--budget-ms", type=_positive_float,
-                         help="[ms] override every run's wall-time budget per control step")
+                         help="[ms] override every run's time budget per control step")
+    compare.add_argument("--work-clock", type=_positive_float, metavar="MS",
+                         help="[ms] keep every run's budget by a work clock: each QP solve costs MS "
+                         "(the same results on any machine and load)")
     compare.add_argument("--out", required=True, help="comparison folder; rerunning the same command skips "
                          "finished runs")
     _add_axis_options(compare)
@@ -229,7 +234,7 @@ def _cmd_run(args) -> int:
 
     scn = load_scenario(args.scenario)
     scn = with_overrides(scn, controller=args.controller, seed=args.seed, budget_ms=args.budget_ms,
-                         etm=False if args.no_etm else None, realtime=True if args.realtime else None)
+                         work_clock_ms=args.work_clock, etm=False if args.no_etm else None, realtime=True if args.realtime else None)
     out = Path(args.out) if args.out else Path("runs") / f"{scn.scenario.name}-{scn.controller.kind}-seed{scn.scenario.seed}"
     gui = None
     if args.gui:
@@ -271,7 +276,8 @@ def _cmd_sweep(args) -> int:
 def _cmd_compare(args) -> int:
     from intersection_cosim.experiments.compare import make_specs, run_compare
 
-    specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration, args.budget_ms, axes=_axes(args))
+    specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration, args.budget_ms, axes=_axes(args),
+                       work_clock_ms=args.work_clock)
     return _interruptible(lambda: run_compare(specs, args.out, workers=args.workers,
                                               dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 

@@ -14,7 +14,7 @@ running mean time (on a large net the filter alone can take more than the share)
 
 from __future__ import annotations
 
-import time
+from intersection_cosim.games import budget_clock
 
 SLOW_SOLVE_FACTOR = 2.0  # [-] a solve is started only if twice its estimated time still fits
 DEFER_DECAY = 0.95  # [-] a deferral shrinks the estimate, so one slow solve cannot defer all later work
@@ -56,8 +56,8 @@ class BatchTimeEstimate:
 
     def fits(self, units: int, cutoff: float) -> bool:
         """Whether a batch of ``units``, at ``SLOW_SOLVE_FACTOR`` times its estimate, ends before
-        ``cutoff`` (a ``time.perf_counter`` value)."""
-        return time.perf_counter() + SLOW_SOLVE_FACTOR * self.seconds(units) <= cutoff
+        ``cutoff`` (a :func:`budget_clock.now` value)."""
+        return budget_clock.now() + SLOW_SOLVE_FACTOR * self.seconds(units) <= cutoff
 
     def deferred(self) -> None:
         """A deferral shrinks the estimate (DEFER_DECAY), as SolveTimeEstimate's."""
@@ -96,7 +96,7 @@ class GameTimeEstimate:
 
     def fits(self, n_warm: int, n_cold: int, cutoff: float) -> bool:
         """Whether the game, at ``SLOW_SOLVE_FACTOR`` times its estimate, ends before ``cutoff``."""
-        return time.perf_counter() + SLOW_SOLVE_FACTOR * self.seconds(n_warm, n_cold) <= cutoff
+        return budget_clock.now() + SLOW_SOLVE_FACTOR * self.seconds(n_warm, n_cold) <= cutoff
 
     def deferred(self, n_warm: int, n_cold: int) -> None:
         for n, est in ((n_warm, self.warm), (n_cold, self.cold)):
@@ -125,8 +125,8 @@ class AnytimeSchedule:
 
 
 def step_cutoff(deadline: float, reserve: float, filter_seconds: float = 0.0) -> float:
-    """The ``time.perf_counter`` value after which no new solve starts: ``deadline`` less what is
+    """The :func:`budget_clock.now` value after which no new solve starts: ``deadline`` less what is
     kept for the safety filter, the share ``reserve`` [-] of the time left or, if larger,
     ``SLOW_SOLVE_FACTOR`` times the filter's estimated time ``filter_seconds`` [s]."""
-    start = time.perf_counter()
+    start = budget_clock.now()
     return deadline - max(reserve * max(deadline - start, 0.0), SLOW_SOLVE_FACTOR * filter_seconds)

@@ -204,7 +204,7 @@ class Controller(Protocol):
     def setup(self, context: ControlContext) -> None: ...
 
     def decide(self, world: World, deadline: float) -> Decisions:
-        """Decisions for the next period; ``deadline`` is a ``time.perf_counter()`` value [s]."""
+        """Decisions for the next period; ``deadline`` is a :func:`~intersection_cosim.games.budget_clock.now` value [s]."""
         ...
 
     def fallback(self, world: World) -> Decisions:

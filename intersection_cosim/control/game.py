@@ -43,10 +43,10 @@ the AV claim it against the human (control/safety.py).
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from intersection_cosim.games import budget_clock
 from intersection_cosim.control.anytime import AnytimeSchedule, step_cutoff
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
 from intersection_cosim.control.exit_room import exit_room_caps
@@ -199,9 +199,9 @@ class GameController:
             out = outcomes[k]
             decisions.deferred += out.deferred
             self._apply(world, k, out.plan, out.option, decisions)
-        t0 = time.perf_counter()
+        t0 = budget_clock.now()
         self._filter(world, relations, decisions)
-        self.schedule.filter.measured(time.perf_counter() - t0)
+        self.schedule.filter.measured(budget_clock.now() - t0)
         return decisions
 
     def _release(self, world: World, active: list[int]) -> list[str]:
@@ -244,9 +244,9 @@ class GameController:
                 for k in (ka, kb):
                     in_game.setdefault(k, []).append(self._kept_choice(world, k))
                 continue
-            t0 = time.perf_counter()
+            t0 = budget_clock.now()
             result, choice = play(world, game, problems, warm, options, self.memory, self.solver, cutoff)
-            estimate.measured(n_warm, n_cold, time.perf_counter() - t0)
+            estimate.measured(n_warm, n_cold, budget_clock.now() - t0)
             self.reuse.solved(world, ka, kb, problems, result, choice)
             self._record_game(world, game, result, decisions)
             for k, plan, option in ((ka, result.plans[0], choice[0]), (kb, result.plans[1], choice[1])):

@@ -14,11 +14,11 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import time
 from typing import NamedTuple
 
 import numpy as np
 
+from intersection_cosim.games import budget_clock
 from intersection_cosim.control.anytime import BatchTimeEstimate
 from intersection_cosim.control.base import World
 from intersection_cosim.control.lane_options import LaneChangeCosts
@@ -68,7 +68,7 @@ class SoloPlanner:
         """Best responses of the solo vehicles ``ks`` (most urgent first), each with its exit-lane
         choice among ``options[k]``: a vehicle whose problem did not change keeps its plan
         (:meth:`reusable`); the others are solved together (games.solo_batch), as many as the
-        anytime schedule fits before ``cutoff`` (perf_counter); past it a vehicle with a plan keeps
+        anytime schedule fits before ``cutoff`` (budget_clock.now); past it a vehicle with a plan keeps
         it, shifted. Every vehicle's leader enters as its plan of the last step (shifted), the
         Jacobi order: no solo vehicle sees another's plan of this step. ``held_before``: the
         vehicles the safety filter held back at a crossing at the last step."""
@@ -92,9 +92,9 @@ class SoloPlanner:
             else:
                 solved.append((k, players))
         if solved:
-            t0 = time.perf_counter()
+            t0 = budget_clock.now()
             outcomes = self._solve_all(world, solved, held_before)
-            estimate.measured(units, time.perf_counter() - t0)
+            estimate.measured(units, budget_clock.now() - t0)
             out.update(outcomes)
         return out
 

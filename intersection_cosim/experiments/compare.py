@@ -96,15 +96,17 @@ class CompareOutcome:
 
 def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLERS, seeds: str = "1-5",
                duration: float | None = None, budget_ms: float | None = None,
-               axes: dict[str, str | None] | None = None) -> list[SweepSpec]:
-    """One sweep spec per scenario; every input checked (InputError) before any run starts."""
+               axes: dict[str, str | None] | None = None, work_clock_ms: float | None = None) -> list[SweepSpec]:
+    """One sweep spec per scenario; every input checked (InputError) before any run starts.
+    ``duration`` [s], ``budget_ms`` [ms] and ``work_clock_ms`` [ms per QP] override every run's."""
     if not scenarios:
         raise InputError("compare", "scenario", "", "give at least one scenario file")
     try:
         parse_controllers(controllers)
     except InputError as exc:
         raise InputError("--controllers", "controllers", controllers, exc.problem) from None
-    overrides = {k: v for k, v in (("duration", duration), ("budget_ms", budget_ms)) if v is not None}
+    overrides = {k: v for k, v in (("duration", duration), ("budget_ms", budget_ms), ("work_clock_ms", work_clock_ms))
+                 if v is not None}
     specs = [make_spec(s, None, controllers, seeds, overrides, axes) for s in scenarios]
     names = [s.scenario_name for s in specs]
     for name in names:

@@ -82,9 +82,9 @@ class Job:
         return is_finished_run(self.run_dir)
 
 
-# Fields a sweep may override for all its runs (``compare --duration``, ``--budget-ms``), with
-# the scenario-file table each belongs to.
-OVERRIDE_TABLES = {"duration": "scenario", "budget_ms": "controller"}
+# Fields a sweep may override for all its runs (``compare --duration``, ``--budget-ms``,
+# ``--work-clock``), with the scenario-file table each belongs to.
+OVERRIDE_TABLES = {"duration": "scenario", "budget_ms": "controller", "work_clock_ms": "controller"}
 
 
 def job_scenario(job: Job):

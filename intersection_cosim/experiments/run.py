@@ -337,7 +337,8 @@ def _simulate(scn: Scenario, folder: Path, inputs: _Inputs, gui=None) -> _Simula
                                     control_period=scn.controller.period, settings=scn.controller_settings,
                                     etm=scn.controller.etm, bodies=bodies,
                                     position_noise=scn.v2x.position_noise if scn.v2x.enabled else 0.0))
-    scheduler = NetworkScheduler(controller, scn.controller.budget_ms, scn.controller.realtime)
+    scheduler = NetworkScheduler(controller, scn.controller.budget_ms, scn.controller.realtime,
+                                 scn.controller.work_clock_ms)
     if gui is not None and not scn.network.generated:  # look at the managed junction, not the origin
         gui = dataclasses.replace(gui, centre=junction_centre(inputs.net, scn.network.junctions[0]))
     view = GuiView(gui, scn.model.vehicle_length) if gui is not None else None

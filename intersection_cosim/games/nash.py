@@ -40,6 +40,7 @@ from typing import Sequence
 
 import numpy as np
 
+from intersection_cosim.games import budget_clock
 from intersection_cosim.games.objective import PlayerObjective
 from intersection_cosim.games.problem import GameResult, Plan, Problem, safe_plan
 from intersection_cosim.games.qp import workspace
@@ -167,7 +168,7 @@ def _iterate(game: EquilibriumSolve, plans: list[Plan], deadline: float | None, 
     status = "iteration cap"
     per_iteration = 0.0
     for _ in range(max_iter):
-        start = time.perf_counter()
+        start = budget_clock.now()
         if deadline is not None and start + per_iteration > deadline:
             status = "deadline"
             break
@@ -183,7 +184,7 @@ def _iterate(game: EquilibriumSolve, plans: list[Plan], deadline: float | None, 
         residuals.append(res)
         if record_costs:
             history.append(game.costs(plans))
-        per_iteration = max(per_iteration, time.perf_counter() - start)
+        per_iteration = max(per_iteration, budget_clock.now() - start)
         if res < gs.solver.nash_tol or (res < gs.solver.nash_cost_guard and max(game.gain) < gs.solver.nash_cost_rtol):
             status = "converged"
             break
@@ -197,7 +198,7 @@ def nash_equilibrium(problem: Problem, settings: GameSettings | None = None,
 
     ``warm_start``: the previous control step's plans shifted by one step (:func:`shift_plans`),
     as Plans or acceleration arrays, one per player (None entries start decoupled); they are
-    projected onto the current constraints. ``deadline``: a ``time.perf_counter()`` value; the
+    projected onto the current constraints. ``deadline``: a :func:`budget_clock.now` value; the
     iteration stops when the next one would not fit and returns the best plans so far with status
     "deadline". ``record_costs``: also fill ``cost_history`` (one cost evaluation per player per
     iteration). Never raises on numerical trouble (module docstring).
@@ -210,7 +211,7 @@ def nash_equilibrium(problem: Problem, settings: GameSettings | None = None,
         game = EquilibriumSolve(problem, gs, ms, "nash")
         warm = warm_list(warm_start, game.n)
         cold = all(w is None for w in warm)
-        if deadline is not None and time.perf_counter() >= deadline:
+        if deadline is not None and budget_clock.now() >= deadline:
             plans = [game.warm_plan(p, warm[p]) if warm[p] is not None
                      else safe_plan(problem.players[p], gs) for p in range(game.n)]
             return _finish(game, plans, [], "deadline", t0, [])

@@ -47,6 +47,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from intersection_cosim.games import budget_clock
 from intersection_cosim.games.follower_qp import FollowerQP, active_set
 from intersection_cosim.games.sqp import SolverFailure, sqp_best_response
 from intersection_cosim.games.nash import EquilibriumSolve, WarmStart, failure_result, nash_equilibrium, warm_list
@@ -78,7 +79,7 @@ def stackelberg_equilibrium(problem: Problem, settings: GameSettings | None = No
 
     ``leader`` overrides the TCP rule (:func:`stackelberg_leader`). ``warm_start``: the previous
     step's plans shifted (:func:`shift_plans`). ``nash``: a Nash result of the same problem to
-    start a cold solve from (computed if not given). ``deadline``: ``time.perf_counter()`` value
+    start a cold solve from (computed if not given). ``deadline``: :func:`budget_clock.now` value
     for anytime mode. Never raises on numerical trouble: a failure returns comfortable braking
     for both with status "solver failure". Raises ValueError if the problem has not 2 players.
     """
@@ -266,7 +267,7 @@ def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int,
     # the Nash point has the follower at its best response; a warm start (the previous step's
     # plans, shifted) first lets the follower answer the shifted leader plan
     x_last, follower_settled, f_cost = plans[F].accelerations, not warm, f_cost0
-    if warm and not (deadline is not None and time.perf_counter() >= deadline):
+    if warm and not (deadline is not None and budget_clock.now() >= deadline):
         out, follower_settled = it.follower_answer(plans, sv.sqp_steps_per_iteration, plans[F].duals)
         plans[F] = it.objF.plan(out.a, out.duals)
         x_last = out.x_qp if out.x_qp is not None else out.a
@@ -281,7 +282,7 @@ def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int,
     residuals: list[float] = []
     status, per_iteration = "iteration cap", 0.0  # [s] the slowest iteration so far
     for _ in range(sv.stackelberg_max_iter):
-        start = time.perf_counter()
+        start = budget_clock.now()
         if deadline is not None and start + per_iteration > deadline:
             status = "deadline"
             break
@@ -300,7 +301,7 @@ def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int,
         if step > 0.9 * delta:
             delta = min(2.0 * delta, sv.trust_region_max)
         residuals.append(res)
-        per_iteration = max(per_iteration, time.perf_counter() - start)
+        per_iteration = max(per_iteration, budget_clock.now() - start)
         if res < sv.stackelberg_tol or (res < sv.nash_cost_guard and gain < sv.nash_cost_rtol and follower_settled):
             status = "converged"
             break

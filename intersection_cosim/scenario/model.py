@@ -46,12 +46,14 @@ class ControllerSettings:
 
     kind: str = "sumo"  # [-] registry name, see intersection_cosim.control
     period: float = 0.1  # [s] control period; a multiple of the SUMO step
-    budget_ms: float = 100.0  # [ms] wall-time budget of one control step (HIL deadline)
+    budget_ms: float = 100.0  # [ms] time budget of one control step (HIL deadline)
+    work_clock_ms: float = 0.0  # [ms] > 0: keep budget_ms by a work clock, this much per QP solve
+    #                             (an emulated box; the same run on any machine); 0: the wall clock
     etm: bool = True  # [-] event-triggered mechanism on (games only for risky pairs)
     realtime: bool = False  # [-] pace the simulation to the wall clock
 
     def check(self) -> list[tuple[str, str]]:
-        return positive(self, "period", "budget_ms")
+        return positive(self, "period", "budget_ms") + non_negative(self, "work_clock_ms")
 
 
 DRIVERS = ("av", "human")  # [-] who drives a vehicle: the controller (av) or SUMO's own model (human)

@@ -27,15 +27,17 @@ class NetworkStep(NamedTuple):
 class NetworkScheduler:
     """``controller`` must be set up before the first :meth:`step` (its parts exist then)."""
 
-    def __init__(self, controller: PerJunction, budget_ms: float, realtime: bool = False):
+    def __init__(self, controller: PerJunction, budget_ms: float, realtime: bool = False,
+                 work_clock_ms: float = 0.0):
         self.controller = controller
         self.budget_ms = budget_ms  # [ms] per junction and control step
+        self.work_clock_ms = work_clock_ms  # [ms] per QP solve; 0: the wall clock (sim.scheduler)
         self._pacer = StepScheduler(controller, budget_ms, realtime)
         self._schedulers: dict[str, StepScheduler] = {}
 
     def step(self, world: World) -> NetworkStep:
         if not self._schedulers:
-            self._schedulers = {j: StepScheduler(part, self.budget_ms) for j, part in self.controller.parts.items()}
+            self._schedulers = {j: StepScheduler(part, self.budget_ms, work_clock_ms=self.work_clock_ms) for j, part in self.controller.parts.items()}
         worlds = self.controller.split(world)
         parts, records, pair_junctions = {}, [], []
         for j, sub in worlds.items():

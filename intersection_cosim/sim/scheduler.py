@@ -1,9 +1,12 @@
 """The deadline-monitored step scheduler: the timing budget of a hardware-in-the-loop box.
 
-Each control step it hands the World to the controller with a deadline, measures the wall time
-the controller takes, and, when the controller raises or overruns its budget, applies the
+Each control step it hands the World to the controller with a deadline, measures the time the
+controller takes, and, when the controller raises or overruns its budget, applies the
 controller's safe fallback instead and records that it did. ``realtime`` paces the simulation to
-the wall clock, as the HIL box runs.
+the wall clock, as the HIL box runs. The budget is kept by the wall clock, or with
+``work_clock_ms`` > 0 by the work clock of an emulated box that spends that many ms per QP solve
+(:mod:`intersection_cosim.games.budget_clock`): then what a tight budget defers, and the whole
+run, does not depend on the machine or its load.
 
 Python's cyclic garbage collector is paused while the controller decides: a full collection
 scans every tracked object of the process (in a 300 s run at 1800 veh/h, 45 000 at the first of
@@ -20,6 +23,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 from intersection_cosim.control.base import Controller, Decisions, World
+from intersection_cosim.games import budget_clock
 
 log = logging.getLogger(__name__)
 
@@ -32,7 +36,7 @@ class StepRecord:
     compute_ms: float  # [ms] wall time the controller took
     games: int  # games played
     iterations: int  # equilibrium iterations, summed over games
-    deadline_missed: bool  # compute_ms exceeded the budget
+    deadline_missed: bool  # the step exceeded the budget (compute_ms, or on the work clock its QPs' cost)
     fallback: bool  # the applied decisions are the fallback
     deferred: int = 0  # games / solo solves the controller left out to meet the budget
     qp_solves: int = 0  # QPs decide solved (its work; kept when the fallback replaces its decisions)
@@ -52,29 +56,31 @@ def collector_paused():
 
 
 class StepScheduler:
-    def __init__(self, controller: Controller, budget_ms: float, realtime: bool = False):
+    def __init__(self, controller: Controller, budget_ms: float, realtime: bool = False,
+                 work_clock_ms: float = 0.0):
         self.controller = controller
         self.budget_s = budget_ms / 1000.0  # [s]
+        self.qp_s = work_clock_ms / 1000.0 or None  # [s] per QP solve on the work clock; None: wall
         self.realtime = realtime
         self._wall_start: float | None = None
 
     def step(self, world: World) -> tuple[Decisions, StepRecord]:
-        start = time.perf_counter()
-        deadline = start + self.budget_s
         failed = False
-        with collector_paused():  # until the wall time is taken: a collection then is not the step's
+        with collector_paused(), budget_clock.work_clock(self.qp_s):
+            # until the wall time is taken: a collection then is not the step's
+            wall_start, start = time.perf_counter(), budget_clock.now()
             try:
-                decisions = self.controller.decide(world, deadline)
+                decisions = self.controller.decide(world, start + self.budget_s)
             except Exception as exc:  # a controller bug or solver crash must not stop the run
                 log.warning("t=%.2f s: controller raised %s: %s; applying the fallback", world.time,
                             type(exc).__name__, exc)
                 decisions, failed = None, True
-            elapsed = time.perf_counter() - start
-        missed = elapsed > self.budget_s
+            elapsed, used = time.perf_counter() - wall_start, budget_clock.now() - start  # [s]
+        missed = used > self.budget_s + 1e-12  # [s] round-off of the work clock's sums
         if failed or missed:
             if missed:
-                log.warning("t=%.2f s: controller took %.1f ms, budget %.1f ms; applying the fallback",
-                            world.time, elapsed * 1e3, self.budget_s * 1e3)
+                log.warning("t=%.2f s: controller took %.1f ms%s, budget %.1f ms; applying the fallback",
+                            world.time, used * 1e3, "" if self.qp_s is None else " of work", self.budget_s * 1e3)
             played = decisions
             decisions = self.controller.fallback(world)
             decisions.fallback = True

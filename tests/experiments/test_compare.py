@@ -51,7 +51,7 @@ def test_markdown_table():
 @pytest.mark.slow
 def test_compare_low_demand_and_rerun(tmp_path, capsys):
     out = tmp_path / "cmp"
-    argv = ["compare", LOW, "--duration", "60", "--budget-ms", "20", "--controllers", "fcfs,sumo-priority",
+    argv = ["compare", LOW, "--duration", "60", "--budget-ms", "20", "--work-clock", "0.5", "--controllers", "fcfs,sumo-priority",
             "--seeds", "1", "--out", str(out), "--workers", "2", "--no-progress"]
     assert main(argv) == 0
     table = pd.read_csv(out / "comparison.csv")
@@ -71,6 +71,7 @@ def test_compare_low_demand_and_rerun(tmp_path, capsys):
     mtime = summary.stat().st_mtime_ns
     settings = json.loads(summary.read_text())["settings"]
     assert settings["controller"]["budget_ms"] == 20.0 and settings["scenario"]["duration"] == 60.0
+    assert settings["controller"]["work_clock_ms"] == 0.5
     capsys.readouterr()
 
     assert main(argv) == 0  # rerun: both runs skipped, table rebuilt

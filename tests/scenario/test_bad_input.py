@@ -56,6 +56,8 @@ CASES = [
      "vehicle[V1].desired_speed", "0.0"),
     ("start above desired speed", HEADER + GOOD_VEHICLE.replace("speed = 5.5", "speed = 5.5\ndesired_speed = 4.0"),
      "vehicle[V1].speed", "5.5"),
+    ("negative work clock", HEADER + "[controller]\nwork_clock_ms = -0.5\n" + GOOD_VEHICLE,
+     "controller.work_clock_ms", "-0.5"),
     ("negative rate", HEADER + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = -100\nkappa = 0.5\n',
      "flow[0].rate", "-100"),
     ("flow kappa outside", HEADER + '[[flow]]\napproach = "north"\nmovement = "straight"\nrate = 100\n'

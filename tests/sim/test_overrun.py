@@ -27,3 +27,29 @@ def test_every_step_over_budget_still_drains_the_junction_without_collision(tmp_
     # everyone to a stop for good), and SUMO counts no collision
     assert vehicles["arrival"].notna().all()
     assert summary["counts"]["collisions"] == 0
+
+
+def _tight(budget_ms: float, work_clock_ms: float):
+    flows = [{"approach": a, "movement": m, "rate": 300.0, "kappa": 0.5, "begin": 0.0, "end": 30.0}
+             for a in ("north", "south", "east", "west") for m in ("left", "straight")]
+    return scenario_from_dict({
+        "scenario": {"name": "tight", "duration": 30.0, "drain": 40.0, "step_length": 0.05, "seed": 3},
+        "controller": {"kind": "nash", "period": 0.1, "budget_ms": budget_ms, "work_clock_ms": work_clock_ms},
+        "flow": flows}, "tight")
+
+
+def test_a_binding_budget_on_the_work_clock_gives_the_same_run_every_time(tmp_path):
+    """A 5 ms budget at 0.75 ms per QP defers work in many steps; on the work clock which work is
+    deferred depends on the QPs alone, so two runs are identical, step by step, whatever the
+    machine's load (on the wall clock they need not be)."""
+    runs = []
+    for name in ("a", "b"):
+        summary = run_scenario(_tight(5.0, 0.75), tmp_path / name)
+        steps = pd.read_csv(tmp_path / name / "steps.csv").drop(columns="compute_ms")
+        runs.append((summary, steps, (tmp_path / name / "trajectories.csv").read_bytes()))
+    (s1, steps1, traj1), (s2, steps2, traj2) = runs
+    assert steps1["deferred"].gt(0).sum() > 50  # the budget binds
+    assert steps1.equals(steps2) and traj1 == traj2
+    assert s1["counts"] == s2["counts"] and s1["counts"]["collisions"] == 0
+    assert s1["counts"]["arrived"] == s1["counts"]["vehicles"] > 10
+    assert s1["settings"]["controller"]["work_clock_ms"] == 0.75

@@ -7,6 +7,9 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control.base import Decisions, World
+from intersection_cosim.games import budget_clock, nash_equilibrium
+from intersection_cosim.games.problem import Player, Problem
+from intersection_cosim.games.qp import solve_count
 from intersection_cosim.sim.scheduler import StepScheduler
 
 
@@ -111,3 +114,35 @@ def test_the_garbage_collector_waits_until_the_step_is_timed():
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+class _Solver(_Controller):
+    """Sleeps, then solves solo problems until it has solved ``qps`` QPs; records the time left
+    to its deadline on the budget clock."""
+
+    def __init__(self, sleep_s=0.0, qps=0):
+        super().__init__(sleep_s)
+        self.qps = qps
+
+    def decide(self, world, deadline):
+        self.left = deadline - budget_clock.now()  # [s]
+        start = solve_count()
+        while solve_count() - start < self.qps:
+            nash_equilibrium(Problem((Player(0.0, 5.0, 0.5),)))
+        return super().decide(world, deadline)
+
+
+def test_on_the_work_clock_the_budget_counts_qps_not_wall_time():
+    # 30 ms of wall time and 3 QPs at 2 ms each: within a 10 ms budget of work
+    slow = _Solver(sleep_s=0.03, qps=3)
+    d, rec = StepScheduler(slow, budget_ms=10.0, work_clock_ms=2.0).step(_world())
+    assert slow.left == pytest.approx(0.010) and not rec.deadline_missed and d.accel == {"V1": 1.0}
+    assert rec.compute_ms >= 30.0  # compute_ms stays the wall time
+    # no wall time to speak of, but 6 or more QPs (12 ms of work): over the budget, the fallback
+    busy = _Solver(qps=6)
+    d, rec = StepScheduler(busy, budget_ms=10.0, work_clock_ms=2.0).step(_world())
+    assert rec.deadline_missed and rec.fallback and d.accel == {"V1": -2.0}
+    # on the wall clock the sleeper misses the 10 ms, and the solver's QPs are only their wall time
+    assert StepScheduler(_Solver(sleep_s=0.03, qps=3), budget_ms=10.0).step(_world())[1].deadline_missed
+    assert not StepScheduler(_Solver(qps=6), budget_ms=200.0).step(_world())[1].deadline_missed
+    assert abs(budget_clock.now() - time.perf_counter()) < 1.0  # the wall clock again after a step
