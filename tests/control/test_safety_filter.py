@@ -289,3 +289,32 @@ def test_a_pair_in_a_game_keeps_only_its_share_of_the_time_gap(paths, movements,
     assert d.accel["L"] == 0.0
     assert (d.accel["S"] < -0.5) == braked and f.filtered == int(braked)
     assert f.events == ({("L", "S")} if braked else set())
+
+
+def test_under_position_noise_a_vehicle_read_inside_the_widened_zone_still_stays_out_of_the_zone(
+        paths, movements, conflict_table):
+    """Under a link's position noise the zones widen by the slack, and a vehicle read inside the
+    widened zone cannot stay out of *that* any more; it can still stay out of the zone itself.
+    A entered the junction first and stands 0.5 m short of its crossing zone (0.85 m of slack:
+    read inside the widened zone); B entered later and stands in the crossing. A, ranked first
+    by the entry queue, must still hold before the zone, not be let drive into B (fokr38 over a
+    noisy link: a vehicle stopped short of its zone drove into one standing in the crossing)."""
+    t = conflict_table
+    p, q = _deepest_crossing(t)
+    a_path, b_path = t.ids[p], t.ids[q]
+    s_a = float(t.zone_in[p, q]) - 0.5  # [m] A just short of its zone, inside the junction
+    s_b = 0.5 * float(t.zone_in[q, p] + t.zone_out[q, p])  # [m] B in the middle of its zone
+    assert s_a > t.s_stop[p]
+    slack = 3.0 * np.sqrt(2.0) * 0.2  # [m] > 0.5 m: A's reading is inside the widened zone
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, gap_slack=slack)
+    for time, entered in ((1.0, ["passing", "ready"]), (5.0, ["passing", "passing"])):
+        world = make_world(paths, time, [("A", a_path, s_a, 0.0), ("B", b_path, s_b, 0.0)])
+        world.role = entered
+        f.record_entries(world)
+    assert f.entered == {"A": 1.0, "B": 5.0}
+    plans = {"A": Plan.from_accelerations(s_a, 0.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
+             "B": Plan.from_accelerations(s_b, 0.0, np.zeros(PROBLEM.steps), PROBLEM.dt)}
+    d = Decisions(accel={"A": 1.0, "B": 0.0})
+    f.apply(world, _relations(world, movements, t), plans, {}, d)
+    assert d.accel["A"] <= 0.0  # A holds short of the crossing B stands in
+    assert d.accel["B"] <= 0.0
