@@ -32,6 +32,17 @@ def _relations(world, movements, table):
     return step_relations(world, set(range(len(world))), movements, table, MODEL, True, {}, RANGE)
 
 
+def _entered_in_order(f, paths, vehicles, first):
+    """The World of ``vehicles`` (make_world's tuples) at t = 5 s, both in the junction, after
+    ``f`` recorded ``first`` entering at t = 1 s and the other at t = 5 s."""
+    roles = ["passing" if v[0] == first else "ready" for v in vehicles]
+    for time, role in ((1.0, roles), (5.0, ["passing"] * len(vehicles))):
+        world = make_world(paths, time, vehicles)
+        world.role = role
+        f.record_entries(world)
+    return world
+
+
 def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, movements, conflict_table):
     """Both hold 8 m/s and reach their crossing about together: the one ranked lower (the later
     by time to the zone) cannot stop at its stop line any more and stops 1 m (safety_margin)
@@ -85,12 +96,7 @@ def test_the_entry_queue_and_the_box_rule(paths, movements, conflict_table):
     s_a = t.zone_in[p, q] - 3.0  # A 3 m before its zone, inside the junction
     assert s_a > t.s_stop[p]
     f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
-    entering = make_world(paths, 1.0, [("A", a_path, s_a, 2.0), ("B", b_path, s_b, 0.0)])
-    entering.role = ["ready", "passing"]
-    f.record_entries(entering)
-    world = make_world(paths, 5.0, [("A", a_path, s_a, 2.0), ("B", b_path, s_b, 0.0)])
-    world.role = ["passing", "passing"]
-    f.record_entries(world)
+    world = _entered_in_order(f, paths, [("A", a_path, s_a, 2.0), ("B", b_path, s_b, 0.0)], first="B")
     assert f.entered == {"B": 1.0, "A": 5.0}
     plans = {"A": Plan.from_accelerations(s_a, 2.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
              "B": Plan.from_accelerations(s_b, 0.0, np.zeros(PROBLEM.steps), PROBLEM.dt)}
@@ -307,10 +313,7 @@ def test_under_position_noise_a_vehicle_read_inside_the_widened_zone_still_stays
     assert s_a > t.s_stop[p]
     slack = 3.0 * np.sqrt(2.0) * 0.2  # [m] > 0.5 m: A's reading is inside the widened zone
     f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, gap_slack=slack)
-    for time, entered in ((1.0, ["passing", "ready"]), (5.0, ["passing", "passing"])):
-        world = make_world(paths, time, [("A", a_path, s_a, 0.0), ("B", b_path, s_b, 0.0)])
-        world.role = entered
-        f.record_entries(world)
+    world = _entered_in_order(f, paths, [("A", a_path, s_a, 0.0), ("B", b_path, s_b, 0.0)], first="A")
     assert f.entered == {"A": 1.0, "B": 5.0}
     plans = {"A": Plan.from_accelerations(s_a, 0.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
              "B": Plan.from_accelerations(s_b, 0.0, np.zeros(PROBLEM.steps), PROBLEM.dt)}
