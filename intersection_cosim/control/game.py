@@ -173,6 +173,7 @@ class GameController:
 
     def _decide(self, world: World, deadline: float) -> Decisions:
         self._decided_at, self._applied = world.time, dict(self.memory.plans)  # for the fallback
+        self.memory.new_step()
         self._held_before, self._held = self._held, frozenset()
         active = [k for k in range(len(world)) if world.role[k] != "outside" and not world.is_human(k)]
         decisions = Decisions(release=self._release(world, active))

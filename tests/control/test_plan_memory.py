@@ -96,3 +96,17 @@ def test_the_kept_plan_is_built_once_per_applied_plan_and_measured_state():
     assert memory.anchored(_World, 0).accelerations[0] == memory.shifted(memory.plans["A"]).accelerations[0]
     memory.forget("A")
     assert memory.anchored(_World, 0) is None
+
+
+def test_a_shifted_plan_is_kept_while_steps_use_it_and_dropped_after_a_step_without_use():
+    memory = PlanMemory(shift=1, period=0.1, steps=STEPS, dt=DT, a_max=2.5, v_max=13.89)
+    used, unused = _plan(0.0), _plan(-1.0)
+    first, other = memory.shifted(used), memory.shifted(unused)
+    assert memory.shifted(used) is first  # the same step: computed once
+    memory.new_step()
+    assert memory.shifted(used) is first  # used in the last step: kept
+    memory.new_step()
+    assert memory.shifted(used) is first  # and in this one
+    again = memory.shifted(unused)  # two steps without use: computed anew, the same values
+    assert again is not other and np.array_equal(again.accelerations, other.accelerations)
+    assert np.array_equal(again.positions, other.positions)
