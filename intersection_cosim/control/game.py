@@ -54,7 +54,7 @@ from intersection_cosim.control.lane_options import LaneChangeCosts, lane_option
 from intersection_cosim.control.game_reuse import GameReuse
 from intersection_cosim.control.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
 from intersection_cosim.control.plan_memory import GameKey, PlanMemory
-from intersection_cosim.control.relations import Relations, step_relations
+from intersection_cosim.control.relations import Relations, TriggerHold, step_relations
 from intersection_cosim.control.safety import SafetyFilter
 from intersection_cosim.control.solo import SoloPlanner
 from intersection_cosim.control.pedestrians import pedestrian_holds
@@ -121,6 +121,8 @@ class GameController:
         self._applied: dict[str, Plan] = {}  # plans applied before that call
         # sorted vehicle-id pairs the filter had to guard (PolicySettings.filter_event): they play
         self._events: set[tuple[str, str]] = set()
+        # sorted vehicle-id pairs that played at the last step (PolicySettings.trigger_hold_gap)
+        self._played: frozenset[tuple[str, str]] = frozenset()
         self.pedestrian_holds = 0  # control steps x vehicles held back for a pedestrian
 
     # ------------------------------------------------------------------ setup
@@ -182,6 +184,7 @@ class GameController:
             return decisions
         self.memory.prune_warm({world.ids[k] for k in active})
         relations = self._relations(world, set(active))
+        self._played = self._hold_after(world, relations)
         lanes = lane_options(world, relations, self.ctx.movements, self.memory.options, self._choice_age,
                              self.settings.policy.lane_choice_period)
         self._choice_age = dict(lanes.choice_age)
@@ -222,8 +225,19 @@ class GameController:
         return release
 
     def _relations(self, world: World, active: set[int]) -> Relations:
+        gap = self.settings.policy.trigger_hold_gap
+        hold = TriggerHold(self._played, gap) if gap > 0 and self._played else None
         return step_relations(world, active, self.ctx.movements, self.table, self.model, self.ctx.etm, self.memory.options,
-                              self.settings.policy.lane_choice_range, frozenset(self._events))
+                              self.settings.policy.lane_choice_range, frozenset(self._events), hold)
+
+    def _hold_after(self, world: World, relations: Relations) -> frozenset[tuple[str, str]]:
+        """The pairs that play this step and may keep playing at the next (the ETM's hysteresis,
+        PolicySettings.trigger_hold_gap), as sorted vehicle-id pairs; none when it is off."""
+        if not self.settings.policy.trigger_hold_gap > 0:
+            return frozenset()
+        ids = world.ids
+        pairs = {(min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs()}
+        return frozenset(self._in_force(world, pairs))
 
     def _play_games(self, world: World, relations: Relations, options, cutoff: float,
                     decisions: Decisions) -> dict[int, list[Choice]]:
@@ -308,6 +322,11 @@ class GameController:
         metres apart), which locked demand_balanced_high (stackelberg, seed 7, 300 s: 40 of 123
         arrived with game_gap_share 0.4; with the event alone 13 vehicles stood in the box at
         150 s; docs/design.md, issue 20 round 3)."""
+        return self._in_force(world, self._events)
+
+    def _in_force(self, world: World, pairs) -> set[tuple[str, str]]:
+        """``pairs`` (sorted vehicle-id pairs) less those whose two vehicles are both in the junction
+        (the entry queue) with one of them slower than ``SafetySettings.clear_speed`` [m/s]."""
         entered, index = self.safety.entered, {vid: k for k, vid in enumerate(world.ids)}
         slow = self.settings.safety.clear_speed  # [m/s]
 
@@ -315,7 +334,7 @@ class GameController:
             if e[0] not in entered or e[1] not in entered:
                 return True
             return all(v in index and float(world.v[index[v]]) >= slow for v in e)
-        return {e for e in self._events if holds(e)}
+        return {e for e in pairs if holds(e)}
 
     def _holds(self, world: World, relations: Relations) -> tuple[dict[str, float], dict[str, float]]:
         """[m/s^2] the caps of the exit-room rule, of the pedestrians at the crossings

@@ -183,20 +183,22 @@ def lane_speed_caps(world: World, rows: Rows, movements: Movements, model: Model
 
 def step_relations(world: World, active: set[int], movements: Movements, table: ConflictTable,
                    model: ModelSettings, etm: bool, held: Mapping[str, str],
-                   lane_choice_range: float, events: frozenset[tuple[str, str]] = frozenset()) -> Relations:
+                   lane_choice_range: float, events: frozenset[tuple[str, str]] = frozenset(),
+                   hold: TriggerHold | None = None) -> Relations:
     """The step's rows, leaders and lateral pairs (ETM on or off). ``events``: vehicle-id pairs
     (sorted) that play their game whatever Gamma_cp says (the safety filter had to hold one of
-    them back for the other: control/game.py)."""
+    them back for the other: control/game.py); ``hold``: the ETM's hysteresis (:class:`TriggerHold`)."""
     rows = build_rows(world, active, movements, table, held, lane_choice_range)
     if model.lane_speed_limits:
         rows = dataclasses.replace(rows, speed_cap=lane_speed_caps(world, rows, movements, model))
-    leaders, lateral = _pair_relations(world, rows, active, table, model, etm, events)
+    leaders, lateral = _pair_relations(world, rows, active, table, model, etm, events, hold)
     row_of = {(int(k), o): r for r, (k, o) in enumerate(zip(rows.vehicle, rows.option))}
     return Relations(rows, leaders, lateral, row_of)
 
 
 def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictTable, model: ModelSettings,
-                    etm: bool, events: frozenset[tuple[str, str]] = frozenset()) -> tuple[dict[int, Leader], LateralPairs]:
+                    etm: bool, events: frozenset[tuple[str, str]] = frozenset(),
+                    hold: TriggerHold | None = None) -> tuple[dict[int, Leader], LateralPairs]:
     """Leaders of every row and the lateral (cross / confluence) row pairs, from the ETM.
 
     A lateral pair stays in the list until one of the two has cleared the crossing (its front
@@ -215,9 +217,22 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     d = (risk.s_cp_i - s_now[0], risk.s_cp_j - s_now[1])
     bodies = (world.lengths(model.vehicle_length), world.widths(model.vehicle_width))  # [m] per World index
     leaders = _leaders(risk, d, k_of, model.conflict_clearance, bodies[0])
-    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.human,
-                        _event_pairs(risk, k_of, world.ids, events))
+    forced = _event_pairs(risk, k_of, world.ids, events)
+    if hold is not None and hold.pairs:
+        kept = _event_pairs(risk, k_of, world.ids, hold.pairs) & (np.abs(risk.tcp_i - risk.tcp_j) < hold.gap)
+        forced = kept if forced is None else forced | kept
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.human, forced)
     return leaders, lateral
+
+
+@dataclass(frozen=True)
+class TriggerHold:
+    """The ETM's hysteresis (PolicySettings.trigger_hold_gap): the vehicle-id pairs (sorted) that
+    played their game at the last step keep playing while their times to the conflict point
+    (TCP, Eqs. 21-22) differ by less than ``gap`` [s]."""
+
+    pairs: frozenset[tuple[str, str]]
+    gap: float  # [s]
 
 
 def _event_pairs(risk, k_of: np.ndarray, ids, events: frozenset[tuple[str, str]]) -> np.ndarray | None:

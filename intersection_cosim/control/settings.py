@@ -50,6 +50,16 @@ class PolicySettings:
     # event ends once both are in the junction and one is below SafetySettings.clear_speed
     # (off by default: with it demand_unbalanced_high at 600 s and a 20 ms budget near-locked, docs/design.md)
     filter_event: bool = False
+    # [s] hysteresis of the ETM (Eq. 39): a pair that played its game keeps playing at the next
+    # step while neither has passed its conflict point and their times to it (TCP, Eqs. 21-22)
+    # differ by less than this, whatever Gamma_cp says; it ends once both are in the junction and
+    # one is below SafetySettings.clear_speed (0: off, the ETM alone). Without it a cautious
+    # yielder that slowed for its game leaves its own preview t_p^i (TCP > t_p^i: Gamma_cp = 0),
+    # plans alone, speeds up, fires the ETM again and brakes, every other step (Case 1 B: V2 at
+    # about 3 m/s instead of falling to 2.4 m/s; min TTC to V1 3.15 s, with 6 s 4.02 s). Off by
+    # default: at 6 s it raised the 95th percentile of a step by ~10 % at 1800 veh/h and one of 60
+    # wall-clock demand runs locked (docs/design.md, issue 20 round 5)
+    trigger_hold_gap: float = 0.0
     anytime_reserve: float = 0.1  # [-] share of the step budget kept for the safety filter (at
     #                               least twice its measured mean time): games and solo solves that
     #                               would not finish before the rest of the budget are deferred
@@ -60,7 +70,7 @@ class PolicySettings:
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
         problems += non_negative(self, "solo_leader_tol", "solo_speed_tol", "solo_position_tol", "solo_reuse_residual",
-                                 "game_reuse_gap", "lane_choice_range", "anytime_reserve")
+                                 "game_reuse_gap", "lane_choice_range", "anytime_reserve", "trigger_hold_gap")
         if not self.anytime_reserve < 1:
             problems.append(("anytime_reserve", "must be < 1"))
         return problems

@@ -542,3 +542,21 @@ def test_solo_reuse_residual_lets_a_nearly_settled_capped_plan_be_kept(paths, ne
     assert strict[:3] == [0, 1, 2]  # unconverged at step 1: solved again at once
     assert loose == [0, 1, 6]  # kept for free_resolve_steps - 1 periods, then solved again
     assert len(loose) < len(strict)
+
+
+@pytest.mark.parametrize("hold_gap, v_slow, plays", [(6.0, 3.0, True), (0.0, 3.0, False), (6.0, 1.0, False)])
+def test_a_pair_keeps_its_game_while_the_yielder_is_beyond_its_preview(paths, net_file, hold_gap, v_slow, plays):
+    """PolicySettings.trigger_hold_gap, the ETM's hysteresis: the pair plays at the first step
+    (Gamma_cp > Gamma_sf); at the next the straight-on vehicle has slowed to v_slow 17 m from
+    the point, its TCP (5.7 s at 3 m/s) beyond its preview t_p (4 s at kappa 0.5), so Gamma_cp
+    is 0. Held, the pair plays on while the TCPs differ by less than 6 s (5.7 - 1.9 = 3.8 s); not
+    held (0) it stops, the yielder then planning alone; 17 s at 1 m/s (15 s apart) ends it too."""
+    c = _nash_controller(paths, net_file, settings=GameControllerSettings(policy=PolicySettings(trigger_hold_gap=hold_gap)))
+    t = c.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    first = c.decide(_world(paths, 1.0, [("L", LEFT, t.s_a[p, q] - 16.0, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 17.0, 8.0)]),
+                     time.perf_counter() + 10.0)
+    assert first.pairs == [("L", "S")]
+    world = _world(paths, 1.1, [("L", LEFT, t.s_a[p, q] - 15.2, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 17.0, v_slow)])
+    d = c.decide(world, time.perf_counter() + 10.0)
+    assert d.pairs == ([("L", "S")] if plays else [])
