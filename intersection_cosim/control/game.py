@@ -235,9 +235,7 @@ class GameController:
         PolicySettings.trigger_hold_gap), as sorted vehicle-id pairs; none when it is off."""
         if not self.settings.policy.trigger_hold_gap > 0:
             return frozenset()
-        ids = world.ids
-        pairs = {(min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs()}
-        return frozenset(self._in_force(world, pairs))
+        return frozenset(self._in_force(world, _playing(world, relations)))
 
     def _play_games(self, world: World, relations: Relations, options, cutoff: float,
                     decisions: Decisions) -> dict[int, list[Choice]]:
@@ -303,9 +301,8 @@ class GameController:
 
     def _filter(self, world: World, relations: Relations, decisions: Decisions) -> None:
         if self.settings.safety.safety_filter:
-            ids = world.ids  # the pairs that play their game (none in a fallback step: stale plans)
-            games = frozenset() if decisions.fallback else frozenset(
-                (min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())
+            # the pairs that play their game (none in a fallback step: stale plans)
+            games = frozenset() if decisions.fallback else _playing(world, relations)
             holds, floors = self._holds(world, relations)
             held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
                                      holds, games, floors)
@@ -421,3 +418,9 @@ class GameController:
         if late is not None:  # the next step starts from decide's late plans
             self.memory.plans.update({vid: plan for vid, plan in late.items() if vid in self.memory.plans})
         return decisions
+
+
+def _playing(world: World, relations: Relations) -> frozenset[tuple[str, str]]:
+    """The vehicle pairs that play their game this step, as sorted vehicle-id pairs."""
+    ids = world.ids
+    return frozenset((min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())

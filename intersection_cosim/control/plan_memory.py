@@ -112,12 +112,9 @@ class PlanMemory:
         vehicle's own warm start, its reuse check and its follower's leader prediction (Plans
         are immutable; the entry holds the plan itself, so a recycled id never matches)."""
         key = id(plan)
-        hit = self._shifts.get(key)
-        if hit is None:
-            hit = self._shifts_before.get(key)
-            if hit is not None and hit[0] is plan:
-                self._shifts[key] = hit  # used again: kept for the next step too
+        hit = self._shifts.get(key) or self._shifts_before.get(key)
         if hit is not None and hit[0] is plan:
+            self._shifts[key] = hit  # used this step: kept for the next one too
             return hit[1]
         if len(self._shifts) >= SHIFT_CACHE_SIZE:  # a guard; one step uses a few hundred
             self._shifts.clear()

@@ -181,6 +181,16 @@ def lane_speed_caps(world: World, rows: Rows, movements: Movements, model: Model
     return caps
 
 
+@dataclass(frozen=True)
+class TriggerHold:
+    """The ETM's hysteresis (PolicySettings.trigger_hold_gap): the vehicle-id pairs (sorted) that
+    played their game at the last step keep playing while their times to the conflict point
+    (TCP, Eqs. 21-22) differ by less than ``gap`` [s]."""
+
+    pairs: frozenset[tuple[str, str]]
+    gap: float  # [s]
+
+
 def step_relations(world: World, active: set[int], movements: Movements, table: ConflictTable,
                    model: ModelSettings, etm: bool, held: Mapping[str, str],
                    lane_choice_range: float, events: frozenset[tuple[str, str]] = frozenset(),
@@ -223,16 +233,6 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
         forced = kept if forced is None else forced | kept
     lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.human, forced)
     return leaders, lateral
-
-
-@dataclass(frozen=True)
-class TriggerHold:
-    """The ETM's hysteresis (PolicySettings.trigger_hold_gap): the vehicle-id pairs (sorted) that
-    played their game at the last step keep playing while their times to the conflict point
-    (TCP, Eqs. 21-22) differ by less than ``gap`` [s]."""
-
-    pairs: frozenset[tuple[str, str]]
-    gap: float  # [s]
 
 
 def _event_pairs(risk, k_of: np.ndarray, ids, events: frozenset[tuple[str, str]]) -> np.ndarray | None:
