@@ -75,6 +75,7 @@ from intersection_cosim.models.settings import ModelSettings
 
 
 WAIT_REACH = 1.0  # [m] how far before its waiting position a standing human counts as waiting there
+CREEP_CLEARANCE = 0.1  # [m] a vehicle leaving a crossing zone to stand between crossings stops this far past it
 VECTOR_MIN_PAIRS = 16  # [-] guarded pairs from which the filter's first look is vectorised (below it
 #                        numpy's fixed cost exceeds the per-pair check's)
 
@@ -136,6 +137,35 @@ def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:
     if d <= 0.0:
         return None
     return -v * v / (2.0 * d)
+
+
+def zone_exit(pairs, row: int, s: float, enter: float, gap: float) -> float | None:
+    """[m] the nearest arc length at or ahead of ``s`` (row ``row``'s front) outside every crossing
+    zone of that row in ``pairs`` (:class:`~intersection_cosim.control.relations.LateralPairs`)
+    that ends short of ``enter`` (the zone it must stay out of; one reaching past it cannot be left
+    before it), when ``s`` lies inside such a zone and that point is at least ``gap`` [m] short of
+    ``enter``; else None."""
+    mine_i, mine_j = pairs.ri == row, pairs.rj == row
+    if not (mine_i.any() or mine_j.any()):
+        return None
+    zones = np.concatenate((pairs.zone_i[mine_i], pairs.zone_j[mine_j]))  # [m] (in, out) each
+    zones = zones[zones[:, 1] + CREEP_CLEARANCE <= enter - gap]
+    zones = zones[np.argsort(zones[:, 0], kind="stable")]
+    out = s
+    for z_in, z_out in zones.tolist():
+        if z_in <= out < z_out:
+            out = z_out + CREEP_CLEARANCE
+    if out == s or out > enter - gap:
+        return None
+    return out
+
+
+def creep_acceleration(s: float, v: float, target: float, accel: float, period: float) -> float:
+    """[m/s^2] at most ``accel`` [m/s^2], the acceleration over one ``period`` [s] that drives a
+    slow vehicle at ``s`` [m] and ``v`` [m/s] on to ``target`` [m] and lets it stop there
+    braking at ``accel`` (the speed it may have at a distance d is sqrt(2 accel d))."""
+    d = max(target - s, 0.0)
+    return min(accel, (math.sqrt(2.0 * accel * d) - v) / period)
 
 
 def braking_plan(plan: Plan, accel: float) -> Plan:
@@ -412,7 +442,8 @@ class SafetyFilter:
                     return
                 continue
             margin = st.human_margin if world.is_human(lower_first[1 - n].k) else st.safety_margin  # [m]
-            a = self._stay_out_noisy(world, c.k, float(self.s_stop[relations.rows.pidx[c.row]]), c.enter, margin)
+            a = self._stay_out_noisy(world, c.k, float(self.s_stop[relations.rows.pidx[c.row]]), c.enter, margin,
+                                     (relations.pairs, c.row))
             if a is not None:
                 cap[ids[c.k]] = min(cap.get(ids[c.k], math.inf), a)
                 other = lower_first[1]
@@ -553,14 +584,15 @@ class SafetyFilter:
             return False
         return self._would_stop_in(world, k, enter)
 
-    def _stay_out_noisy(self, world: World, k: int, s_stop: float, enter: float, margin: float) -> float | None:
+    def _stay_out_noisy(self, world: World, k: int, s_stop: float, enter: float, margin: float,
+                        own: tuple | None = None) -> float | None:
         """:meth:`_stay_out` of the zone widened by ``gap_slack`` (``enter`` [m]); if the vehicle's
         reading is already inside that widened start but it can still stop short of the zone
         itself, it stops as soon as it can (hardest braking, a standing one stays): it is not
         committed, and under the link's noise the zone's own edge by its reading is no safe
         target. A vehicle standing short of its zone, read inside the widened one, was otherwise
         let drive into another standing in the crossing (fokr38 over a 1 m noisy link)."""
-        a = self._stay_out(world, k, s_stop, enter, margin)
+        a = self._stay_out(world, k, s_stop, enter, margin, own)
         if a is not None or self.gap_slack <= 0.0:
             return a
         s_k, v_k = float(world.s[k]), float(world.v[k])  # [m], [m/s]
@@ -569,15 +601,26 @@ class SafetyFilter:
             return None  # it cannot stop short of the zone: committed
         return max(brake, -v_k / self.period)
 
-    def _stay_out(self, world: World, k: int, s_stop: float, enter: float, margin: float) -> float | None:
+    def _stay_out(self, world: World, k: int, s_stop: float, enter: float, margin: float,
+                  own: tuple | None = None) -> float | None:
         """[m/s^2] the acceleration that keeps vehicle k out of a zone starting at ``enter`` [m]:
         stop at its stop line (less ``safety_margin``) if it has not reached it and can, else
         before the zone (less ``margin`` [m], else less ``safety_margin``, or at its edge when
-        already within them); None if it cannot any more (inside, or too fast)."""
+        already within them); None if it cannot any more (inside, or too fast). ``own``: (the
+        step's LateralPairs, k's row): a slow vehicle (below ``clear_speed``) standing inside
+        another of its crossing zones that it can leave short of this one drives on out of it
+        and stands between the two (:func:`zone_exit`, :func:`creep_acceleration`): held where
+        it stood, it blocked that crossing's vehicle, which waited for it while holding up a
+        third, who held this one back (a cycle of three in demand_balanced_high: docs/design.md,
+        "A gridlock of three")."""
         st = self.settings
         s_k, v_k = float(world.s[k]), float(world.v[k])
         if s_k >= enter:
             return None
+        if own is not None and v_k < st.clear_speed:
+            target = zone_exit(own[0], own[1], s_k, enter, CREEP_CLEARANCE)
+            if target is not None:
+                return creep_acceleration(s_k, v_k, target, st.clear_accel, self.period)
         for target in (s_stop - st.safety_margin, enter - margin, enter - st.safety_margin, enter - 0.05):
             if target <= s_k:
                 continue
