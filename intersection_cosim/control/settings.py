@@ -57,8 +57,8 @@ class PolicySettings:
     # yielder that slowed for its game leaves its own preview t_p^i (TCP > t_p^i: Gamma_cp = 0),
     # plans alone, speeds up, fires the ETM again and brakes, every other step (Case 1 B: V2 at
     # about 3 m/s instead of falling to 2.4 m/s; min TTC to V1 3.15 s, with 6 s 4.02 s). Off by
-    # default: at 6 s it raised the 95th percentile of a step by ~10 % at 1800 veh/h and
-    # demand_balanced_high, nash, seed 5 locked (docs/design.md, issue 20 round 5)
+    # default: at 6 s it raised the 95th percentile of a step by ~10 % and the steps with deferred
+    # work to 1.4-1.5 % at 1800 veh/h (docs/design.md, issue 20 round 5, "A gridlock of three")
     trigger_hold_gap: float = 0.0
     anytime_reserve: float = 0.1  # [-] share of the step budget kept for the safety filter (at
     #                               least twice its measured mean time): games and solo solves that
