@@ -325,8 +325,8 @@ def test_under_position_noise_a_vehicle_read_inside_the_widened_zone_still_stays
 
 def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_stops_between_them(
         paths, movements, conflict_table):
-    """K stands 0.5 m before the end of its zone with A (139.0-145.5 m) and must stay out of its
-    next zone, with B (from 147.0 m), where B, first into the junction, stands. Held where it
+    """K stands 0.5 m before the end of its zone with A (139.0-145.5 m on the default net) and must
+    stay out of its next zone, with B (from 147.0 m), where B, first into the junction, stands. Held where it
     stood, K blocked A, who waits for it (the cycle of three of demand_balanced_high); it now
     drives on out of A's zone and stops between the two zones (at most 1 m/s^2), never entering
     B's; A then has a free crossing."""
@@ -334,7 +334,7 @@ def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_st
     k_path, a_path, b_path = "north_middle_straight_middle", "east_outer_straight_outer", "east_inner_straight_inner"
     p, qa, qb = t.index[k_path], t.index[a_path], t.index[b_path]
     y_out, x_in = float(t.zone_out[p, qa]), float(t.zone_in[p, qb])  # [m] on K's path
-    assert (y_out, x_in) == (145.5, 147.0)
+    assert x_in - y_out >= 0.5  # [m] room to stand between the two zones
     s_b = 0.5 * (t.zone_in[qb, p] + t.zone_out[qb, p])  # [m] B in the middle of its zone with K
     s_a = t.zone_in[qa, p] - 3.0  # [m] A 3 m before its zone with K, at 3 m/s (there in 1 s)
     f = SafetySettings()
