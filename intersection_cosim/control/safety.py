@@ -27,8 +27,9 @@ games; it only ever *lowers* an acceleration, and only when the plans of this st
   while the other clears the crossing. A slow vehicle in the junction held out of one crossing
   while it stands inside another that it can leave short of the first drives on out of it and
   stands between the two (held where it stood it could close a cycle of waits). A pair is
-  guarded until one of the two has left its zone. Vehicles braked in a first pass are checked again with their braking plan, so a vehicle
-  made to stop is seen by the other crossings it now blocks.
+  guarded until one of the two has left its zone. Vehicles braked in a first pass are checked
+  again with their braking plan, so a vehicle made to stop is seen by the other crossings it
+  now blocks.
 * **Leaders.** A follower's acceleration is capped by the safe speed of Krauss' car-following
   model (SUMO's default): v_safe = -b tau + sqrt((b tau)^2 + (b / b_L) v_L^2 + 2 b (gap - margin)),
   with tau = the control period, so it can always stop behind a leader that brakes as hard as it
@@ -609,12 +610,12 @@ class SafetyFilter:
         stop at its stop line (less ``safety_margin``) if it has not reached it and can, else
         before the zone (less ``margin`` [m], else less ``safety_margin``, or at its edge when
         already within them); None if it cannot any more (inside, or too fast). ``own``: (the
-        step's LateralPairs, k's row): a slow vehicle (below ``clear_speed``) standing inside
-        another of its crossing zones that it can leave short of this one, past its stop line,
-        drives on out of it and stands between the two (:func:`zone_exit`, :func:`creep_acceleration`): held where
-        it stood, it blocked that crossing's vehicle, which waited for it while holding up a
-        third, who held this one back (a cycle of three in demand_balanced_high: docs/design.md,
-        "A gridlock of three")."""
+        step's LateralPairs, k's row): a slow vehicle (below ``clear_speed``) past its stop line
+        standing inside another of its crossing zones that it can leave short of this one drives
+        on out of it and stands between the two (:func:`zone_exit`, :func:`creep_acceleration`):
+        held where it stood, it blocked that crossing's vehicle, which waited for it while
+        holding up a third, who held this one back (a cycle of three in demand_balanced_high:
+        docs/design.md, "A gridlock of three")."""
         st = self.settings
         s_k, v_k = float(world.s[k]), float(world.v[k])
         if s_k >= enter:

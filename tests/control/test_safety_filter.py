@@ -325,11 +325,11 @@ def test_under_position_noise_a_vehicle_read_inside_the_widened_zone_still_stays
 
 def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_stops_between_them(
         paths, movements, conflict_table):
-    """K stands 0.5 m before the end of its zone with A (139.0-145.5 m on the default net) and must
-    stay out of its next zone, with B (from 147.0 m), where B, first into the junction, stands. Held where it
-    stood, K blocked A, who waits for it (the cycle of three of demand_balanced_high); it now
-    drives on out of A's zone and stops between the two zones (at most 1 m/s^2), never entering
-    B's; A then has a free crossing."""
+    """K stands 0.5 m before the end of its zone with A (139.0-145.5 m on the default net) and
+    must stay out of its next zone, with B (from 147.0 m), where B, first into the junction,
+    stands. Held where it stood, K blocked A, who waits for it (the cycle of three of
+    demand_balanced_high); it now drives on out of A's zone and stops between the two zones (at
+    most 1 m/s^2), never entering B's; A then has a free crossing."""
     t = conflict_table
     k_path, a_path, b_path = "north_middle_straight_middle", "east_outer_straight_outer", "east_inner_straight_inner"
     p, qa, qb = t.index[k_path], t.index[a_path], t.index[b_path]
@@ -337,15 +337,15 @@ def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_st
     assert x_in - y_out >= 0.5  # [m] room to stand between the two zones
     s_b = 0.5 * (t.zone_in[qb, p] + t.zone_out[qb, p])  # [m] B in the middle of its zone with K
     s_a = t.zone_in[qa, p] - 3.0  # [m] A 3 m before its zone with K, at 3 m/s (there in 1 s)
-    f = SafetySettings()
-    flt = SafetyFilter(f, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
     s_k, v_k = y_out - 0.5, 0.0  # [m], [m/s]
-    for step, first in enumerate(("B", "K", "A")):  # B entered first, then K, then A
+    order = ("B", "K", "A")  # into the junction at t = 0, 1, 2 s
+    for step in range(len(order)):
         world = make_world(paths, float(step), [("K", k_path, s_k, v_k), ("A", a_path, s_a, 0.0),
                                                 ("B", b_path, s_b, 0.0)])
-        world.role = ["passing" if vid in ("B", "K", "A")[:step + 1] else "ready" for vid in world.ids]
-        flt.record_entries(world)
-    assert list(flt.entered) == ["B", "K", "A"]
+        world.role = ["passing" if vid in order[:step + 1] else "ready" for vid in world.ids]
+        f.record_entries(world)
+    assert list(f.entered) == list(order)
     first_accel, track = None, []
     for step in range(60):  # 6 s at the 0.1 s period
         world = make_world(paths, 3.0 + 0.1 * step, [("K", k_path, s_k, v_k), ("A", a_path, s_a, 3.0),
@@ -355,7 +355,7 @@ def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_st
                  "A": Plan.from_accelerations(s_a, 3.0, np.zeros(PROBLEM.steps), PROBLEM.dt),
                  "B": Plan.from_accelerations(s_b, 0.0, np.zeros(PROBLEM.steps), PROBLEM.dt)}
         d = Decisions(accel={"K": 1.0, "A": 0.0, "B": 0.0})
-        flt.apply(world, _relations(world, movements, t), plans, {}, d)
+        f.apply(world, _relations(world, movements, t), plans, {}, d)
         first_accel = d.accel["K"] if first_accel is None else first_accel
         if step == 0:
             assert d.accel["A"] < 0.0  # A waits for K, who ranks ahead of it
@@ -363,6 +363,6 @@ def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_st
         s_k += v_k * 0.1 + 0.5 * a * 0.01
         v_k = max(v_k + a * 0.1, 0.0)
         track.append(s_k)
-    assert 0.0 < first_accel <= f.clear_accel  # it moves on, gently (it stood still before)
+    assert 0.0 < first_accel <= GS.clear_accel  # it moves on, gently (it stood still before)
     assert max(track) < x_in  # never into B's zone
     assert y_out < s_k < x_in and v_k < 0.05  # stopped between the two zones
