@@ -228,6 +228,7 @@ class SafetyFilter:
         # apply() had to guard (one held back): the controller may let them play (control/game.py)
         self.events: set[tuple[str, str]] = set()
         self._games: frozenset[tuple[str, str]] = frozenset()  # this apply()'s pairs in a game
+        self._queue: dict[str, float] = {}  # [s] this apply()'s entry times to rank by (_inherited_entries)
 
     def record_entries(self, world: World) -> None:
         """Put vehicles that entered the junction ("passing") into the entry queue."""
@@ -277,6 +278,7 @@ class SafetyFilter:
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
         pairs, on = relations.pairs, np.array(chosen, bool)
         guarded = np.flatnonzero(on[pairs.ri] & on[pairs.rj]) if len(pairs) else np.zeros(0, np.intp)
+        self._queue = self._inherited_entries(world, relations, guarded)
         if world.human is not None and bool(np.any(world.human)):
             for m in guarded:
                 self._hold_for_human(world, relations, pairs.at(m), plans, cap)
@@ -573,10 +575,40 @@ class SafetyFilter:
         first, like a vehicle SUMO drives again."""
         if world.role[k] == "outside" or (world.is_human(k) and self.human_committed(world, k, enter)):
             return (-1, 0.0, world.ids[k])
-        entered = self.entered.get(world.ids[k])
+        entered = self._queue.get(world.ids[k], self.entered.get(world.ids[k]))
         if entered is not None:
             return (0, entered, world.ids[k])
         return (0.5, t_in, world.ids[k]) if world.is_human(k) else (1, t_in, world.ids[k])
+
+    def _inherited_entries(self, world: World, relations: Relations, guarded: np.ndarray) -> dict[str, float]:
+        """[s] the entry time each vehicle in the junction ranks by (:meth:`_rank`): its own, or
+        the earlier one of a vehicle in the junction that waits (below ``clear_speed``) short of
+        their crossing while this one stands inside its zone of it, passed on along chains. So
+        a vehicle that blocks one ranked ahead of others goes before those others and clears its
+        way (priority inheritance): the "cannot stay out" rule had let a vehicle standing in the
+        first one's crossing wait for a third, and four vehicles held each other for good
+        (docs/design.md, "The cycle of four, replayed"). Human drivers neither pass nor inherit."""
+        queue = dict(self.entered)
+        if not len(guarded) or not queue:
+            return queue
+        pairs, vehicle, ids = relations.pairs, relations.rows.vehicle, world.ids
+        inside = np.array([vid in queue and not world.is_human(k) for k, vid in enumerate(ids)], bool)
+        ks = (vehicle[pairs.ri[guarded]], vehicle[pairs.rj[guarded]])
+        zones = (pairs.zone_i[guarded], pairs.zone_j[guarded])
+        links = []  # (the waiting vehicle, the one standing in its crossing)
+        for w, b in ((0, 1), (1, 0)):
+            s_w, s_b = world.s[ks[w]], world.s[ks[b]]
+            m = (inside[ks[w]] & inside[ks[b]] & (world.v[ks[w]] < self.settings.clear_speed)
+                 & (s_w < zones[w][:, 0]) & (zones[b][:, 0] <= s_b) & (s_b < zones[b][:, 1]))
+            links += [(ids[x], ids[y]) for x, y in zip(ks[w][m].tolist(), ks[b][m].tolist())]
+        for _ in range(len(links)):  # a chain is at most as long as the links
+            changed = False
+            for waiting, blocking in links:
+                if queue[waiting] < queue[blocking]:
+                    queue[blocking], changed = queue[waiting], True
+            if not changed:
+                break
+        return queue
 
     def human_committed(self, world: World, k: int, enter: float) -> bool:
         """Whether human k can no longer stop before arc length ``enter`` [m]: its braking distance

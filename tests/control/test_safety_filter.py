@@ -366,3 +366,32 @@ def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_st
     assert 0.0 < first_accel <= GS.clear_accel  # it moves on, gently (it stood still before)
     assert max(track) < x_in  # never into B's zone
     assert y_out < s_k < x_in and v_k < 0.05  # stopped between the two zones
+
+
+def test_a_vehicle_standing_in_the_first_ones_crossing_goes_before_the_vehicles_it_ranks_behind(
+        paths, movements, conflict_table):
+    """The cycle of four of demand_balanced_high (stackelberg, seed 5, 392 s), rebuilt: L (in
+    first) waits 0.1 m before its zone with T, which stands inside their crossing; T waits 1 m
+    before its zone with S (in after L, with T), S for N (inside S's crossing), N for L. T now
+    ranks as L, whom it blocks: it is no longer held for S and drives on (its plan, 1.69 m/s^2),
+    which clears L's way; S still yields (it can)."""
+    t = conflict_table
+    veh = [("L", "east_outer_straight_outer", 150.70, 0.0), ("T", "north_inner_left_inner", 142.00, 0.0),
+           ("S", "east_middle_straight_middle", 145.49, 0.38), ("N", "south_inner_straight_inner", 158.95, 0.0)]
+    entered = {"L": 376.35, "N": 381.35, "S": 384.25, "T": 384.25}  # [s], as in the run
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    for vid, when in sorted(entered.items(), key=lambda e: e[1]):
+        world = make_world(paths, when, veh)
+        world.role = ["passing" if entered[v[0]] <= when else "ready" for v in veh]
+        f.record_entries(world)
+    assert f.entered == entered
+    world = make_world(paths, 392.05, veh)
+    world.role = ["passing"] * 4
+    want = {"L": 2.5, "T": 1.69, "S": 2.5, "N": 2.5}  # [m/s^2] the plans' first accelerations
+    plans = {v: Plan.from_accelerations(s, speed, np.full(PROBLEM.steps, want[v]), PROBLEM.dt)
+             for v, _p, s, speed in veh}
+    d = Decisions(accel=dict(want))
+    f.apply(world, _relations(world, movements, t), plans, {}, d)
+    assert d.accel["T"] == pytest.approx(1.69)  # T goes: it stood in L's crossing
+    assert d.accel["S"] < 0.0 and d.accel["N"] <= 0.0  # S yields to N, N to L
+    assert d.accel["L"] <= 0.0  # L waits until T has left their crossing
