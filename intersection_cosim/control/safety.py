@@ -228,7 +228,6 @@ class SafetyFilter:
         # apply() had to guard (one held back): the controller may let them play (control/game.py)
         self.events: set[tuple[str, str]] = set()
         self._games: frozenset[tuple[str, str]] = frozenset()  # this apply()'s pairs in a game
-        self._queue: dict[str, float] = {}  # [s] this apply()'s entry times to rank by (_inherited_entries)
 
     def record_entries(self, world: World) -> None:
         """Put vehicles that entered the junction ("passing") into the entry queue."""
@@ -278,7 +277,7 @@ class SafetyFilter:
         clear: set[str] = set()  # vehicles in a crossing that another one waits for
         pairs, on = relations.pairs, np.array(chosen, bool)
         guarded = np.flatnonzero(on[pairs.ri] & on[pairs.rj]) if len(pairs) else np.zeros(0, np.intp)
-        self._queue = self._inherited_entries(world, relations, guarded)
+        queue = self._inherited_entries(world, relations, guarded)  # [s] entry times to rank by
         if world.human is not None and bool(np.any(world.human)):
             for m in guarded:
                 self._hold_for_human(world, relations, pairs.at(m), plans, cap)
@@ -292,7 +291,7 @@ class SafetyFilter:
             close, occ = self._maybe_close(world, relations, guarded, plans)
             for n in np.flatnonzero(close):
                 self._guard(world, relations, pairs.at(guarded[n]), plans, cap, clear,
-                            None if occ is None else tuple(float(x[n]) for x in occ))
+                            None if occ is None else tuple(float(x[n]) for x in occ), queue)
         return self._enforce(decisions, cap, leader_cap, clear, brakes)
 
     def _widened(self, relations: Relations) -> Relations:
@@ -411,7 +410,8 @@ class SafetyFilter:
         return frozenset(held)
 
     def _guard(self, world: World, relations: Relations, lat: Lateral, plans: dict[str, Plan],
-               cap: dict[str, float], clear: set[str], occ: tuple[float, ...] | None = None) -> None:
+               cap: dict[str, float], clear: set[str], occ: tuple[float, ...] | None = None,
+               queue: Mapping[str, float] | None = None) -> None:
         """Caps (into ``cap``) for one crossing that the ``plans`` would share within
         ``safety_time_gap``: the lower-ranked vehicle yields if it can still stay out of its zone
         (waiting at its stop line if it has not reached it: AIM's rule, enter only to clear);
@@ -435,8 +435,8 @@ class SafetyFilter:
         if lat.live and not (world.is_human(ki) or world.is_human(kj)):
             self.events.add((min(ids[ki], ids[kj]), max(ids[ki], ids[kj])))
         ti, tj = self._arrival(world, lat, ki, kj, in_i, in_j)
-        lower_first = sorted((_Crossing(self._rank(world, ki, ti, lat.zone_i[0]), ki, lat.ri, lat.zone_i[0]),
-                              _Crossing(self._rank(world, kj, tj, lat.zone_j[0]), kj, lat.rj, lat.zone_j[0])),
+        lower_first = sorted((_Crossing(self._rank(world, ki, ti, lat.zone_i[0], queue), ki, lat.ri, lat.zone_i[0]),
+                              _Crossing(self._rank(world, kj, tj, lat.zone_j[0], queue), kj, lat.rj, lat.zone_j[0])),
                              key=lambda c: (c.rank, c.k, c.row, c.enter), reverse=True)
         for n, c in enumerate(lower_first):
             if world.is_human(c.k):  # a human is never made to yield by the filter (nothing commands it)
@@ -564,7 +564,8 @@ class SafetyFilter:
                     time_to_conflict_point(lat.zone_j[0] - float(world.s[kj]), float(world.v[kj]), floor))
         return in_i, in_j
 
-    def _rank(self, world: World, k: int, t_in: float, enter: float = math.inf) -> tuple:
+    def _rank(self, world: World, k: int, t_in: float, enter: float = math.inf,
+              queue: Mapping[str, float] | None = None) -> tuple:
         """Priority of vehicle k at a crossing it would reach in ``t_in`` [s]: smaller is first.
         A vehicle that has left the junction (SUMO drives it, its rear may still be in the
         crossing) comes first: it cannot yield. One inside ranks by when it entered (first in,
@@ -572,10 +573,11 @@ class SafetyFilter:
         close a cycle), ahead of every vehicle not yet in. A human not yet in ranks ahead of every AV
         not yet in (it will not yield to them), behind those inside (SUMO makes it wait for them),
         unless it cannot stop before the crossing starting at ``enter`` [m] any more: then it ranks
-        first, like a vehicle SUMO drives again."""
+        first, like a vehicle SUMO drives again. ``queue``: the entry times [s] to rank by
+        (:meth:`_inherited_entries`); the recorded ones when None."""
         if world.role[k] == "outside" or (world.is_human(k) and self.human_committed(world, k, enter)):
             return (-1, 0.0, world.ids[k])
-        entered = self._queue.get(world.ids[k], self.entered.get(world.ids[k]))
+        entered = (self.entered if queue is None else queue).get(world.ids[k])
         if entered is not None:
             return (0, entered, world.ids[k])
         return (0.5, t_in, world.ids[k]) if world.is_human(k) else (1, t_in, world.ids[k])
