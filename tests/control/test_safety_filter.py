@@ -379,6 +379,11 @@ def test_a_vehicle_standing_in_the_first_ones_crossing_goes_before_the_vehicles_
     veh = [("L", "east_outer_straight_outer", 150.70, 0.0), ("T", "north_inner_left_inner", 142.00, 0.0),
            ("S", "east_middle_straight_middle", 145.49, 0.38), ("N", "south_inner_straight_inner", 158.95, 0.0)]
     entered = {"L": 376.35, "N": 381.35, "S": 384.25, "T": 384.25}  # [s], as in the run
+    zone = {(a[0], b[0]): (float(t.zone_in[t.index[a[1]], t.index[b[1]]]), float(t.zone_out[t.index[a[1]], t.index[b[1]]]))
+            for a in veh for b in veh if a != b}  # [m] on the first one's path
+    assert zone["T", "L"][0] <= 142.0 < zone["T", "L"][1]  # T stands in its crossing with L ...
+    assert zone["T", "S"][0] - GS.safety_margin == pytest.approx(142.0)  # ... where it waits for S
+    assert zone["L", "T"][0] - 150.70 < GS.safety_margin  # L short of its zone with T
     f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
     for vid, when in sorted(entered.items(), key=lambda e: e[1]):
         world = make_world(paths, when, veh)
