@@ -89,7 +89,10 @@ def _min_lateral_ttc(problem, result, ms):
 
 
 def test_higher_kappa_faster_and_closer(gs, ms):
-    """Raising kappa of player 0 (all else equal): its mean speed rises, the min TTC_lat falls."""
+    """Raising kappa of player 0 (all else equal): its mean speed rises, the min TTC_lat falls.
+
+    Between kappa 0.3 and 0.5 the margin stays on a plateau at 0.677 s (within 1e-5 s: it moves
+    by less than the solvers' tolerance), then falls by 0.05 and 0.17 s."""
     speeds, ttcs = [], []
     for kappa in (0.3, 0.5, 0.7, 0.9):
         problem = Problem((Player(0.0, 5.5, kappa), Player(0.0, 5.0, 0.5)),
@@ -99,7 +102,8 @@ def test_higher_kappa_faster_and_closer(gs, ms):
         speeds.append(result.plans[0].mean_speed)
         ttcs.append(_min_lateral_ttc(problem, result, ms))
     assert np.all(np.diff(speeds) > 0.1), speeds
-    assert np.all(np.diff(ttcs) < 0.0), ttcs
+    assert np.all(np.diff(ttcs) < 1e-4), ttcs
+    assert ttcs[1] - ttcs[2] > 0.03 and ttcs[2] - ttcs[3] > 0.1, ttcs
 
 
 def test_warm_start_median_iterations(pair_battery, nash_battery, gs, ms):
