@@ -87,6 +87,8 @@ class QPWorkspace:
         raw = getattr(self.solver, "_solver", None)
         needed = ("update_data_vec", "update_data_mat", "warm_start", "solve", "info", "solution")
         self._raw = raw if all(hasattr(raw, m) for m in needed) else None
+        self._no_duals = np.zeros(2 * n)  # the multipliers of an interior solution (read-only)
+        self._no_duals.setflags(write=False)
         self.H: np.ndarray | None = None  # P currently installed (unnormalised)
         self._reuse_bound = 0.0
         self._scale = 1.0
@@ -172,13 +174,11 @@ class QPWorkspace:
         if info != 0:
             return None
         x = a - x
-        n = self.n
-        if not (l[:n] <= x).all() or not (x <= u[:n]).all():
+        rows = np.concatenate((x, x.cumsum()))
+        rows[self.n:] *= self.row_scale[self.n:]
+        if not ((l <= rows) & (rows <= u)).all():  # also for NaN: every comparison with it is False
             return None
-        rows = x.cumsum() * self.row_scale[n:]
-        if not (l[n:] <= rows).all() or not (rows <= u[n:]).all():
-            return None  # also for NaN: every comparison with it is False
-        return QPSolution(x, np.zeros(2 * n), H, "solved", 0, np.ones(2 * n))
+        return QPSolution(x, self._no_duals, H, "solved", 0, self._no_duals)
 
 
 def solve_count() -> int:

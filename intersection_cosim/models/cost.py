@@ -37,16 +37,18 @@ def _ttc_log(gap: np.ndarray, dv: np.ndarray) -> np.ndarray:
 def longitudinal_safety_cost(gap, v, v_lead, eps):
     """J_s-log = gamma_log / (TTC_log^2 + eps) (Eqs. 15-18); gamma_log = 0 when not closing.
 
-    Dimensionless cost [1/s^2 scaled]; eps [s^2] > 0.
+    Dimensionless cost [1/s^2 scaled]; eps [s^2] > 0. Where the bodies overlap (gap < 0) TTC_log
+    is 0 and the cost 1 / eps; where the host does not close in (or TTC_log is infinite) it is 0.
     """
-    ttc = _ttc_log(np.asarray(gap, float), np.asarray(v, float) - np.asarray(v_lead, float))
-    finite = np.isfinite(ttc)
-    np.copyto(ttc, 0.0, where=~finite)
-    out = 1.0 / (np.square(ttc) + eps)
-    if not out.ndim:  # a scalar
-        return float(out) if finite else 0.0
-    np.copyto(out, 0.0, where=~finite)
-    return out
+    gap = np.asarray(gap, float)
+    dv = np.asarray(v, float) - np.asarray(v_lead, float)
+    if gap.shape != dv.shape:
+        gap, dv = np.broadcast_arrays(gap, dv)
+    overlap = gap < 0.0
+    closing = dv > 0.0
+    ttc = np.divide(gap, dv, out=np.zeros(gap.shape), where=closing & ~overlap)  # [s]
+    out = np.where(closing | overlap, 1.0 / (np.square(ttc) + eps), 0.0)  # 0 where TTC_log is infinite
+    return out if out.ndim else float(out)
 
 
 def time_to_conflict_point(distance, v, speed_floor=0.1):
@@ -71,7 +73,7 @@ def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
     ``active`` is False once either vehicle has passed the conflict point: the pair then has no
     lateral cost (the paper is silent on a passed point; our reading).
     """
-    ttc = np.asarray(lateral_ttc(tcp_i, tcp_j), float)
+    ttc = np.subtract(tcp_i, tcp_j, dtype=float)  # TTC_lat (Eq. 20), as lateral_ttc
     out = np.where(active, 1.0 / (np.square(ttc) + eps), 0.0)
     return out if out.ndim else float(out)
 
