@@ -4,7 +4,8 @@ Each vehicle follows its own lane path; a player's decision is its acceleration 
 horizon, its cost the paper's running cost (Eqs. 13-24, from ``models.cost``) summed over the
 horizon. Entry points:
 
-* :func:`best_response` - one player against the others' plans (sequential QP with OSQP);
+* :func:`best_response` - one player against the others' plans (sequential QP; each QP exact when
+  no bound is active, else OSQP);
 * :func:`nash_equilibrium` - iterated best response (Eq. 25);
 * :func:`stackelberg_equilibrium` - leader with the smaller TCP, follower through its KKT
   conditions (Eqs. 34-40);

@@ -203,7 +203,7 @@ class GameResult:
     residuals: tuple[float, ...]  # [m/s^2] per iteration
     cost_history: np.ndarray  # [-] shape (iterations, n)
     iterations: int
-    qp_count: int  # OSQP solves in this call
+    qp_count: int  # QP solves in this call (exact interior answers and OSQP)
     status: str  # one of STATUSES
     solver: str  # "nash" or "stackelberg"
     wall_time: float = 0.0  # [s]

@@ -1,4 +1,4 @@
-"""The QP of one SQP step, solved with OSQP; one workspace per problem shape, reused.
+"""The QP of one SQP step: exact when no row is active, else OSQP; one workspace per shape, reused.
 
 Every QP of the game layer has the same shape: N variables (a player's accelerations) and 2N rows
 
@@ -110,7 +110,8 @@ class QPWorkspace:
         the speed rows come from :meth:`speed_rows`. ``y0``: multipliers of the unscaled rows to
         warm-start with (e.g. carried by the previous control step's plan); without it OSQP keeps
         the duals of the slot's previous solve. With ``reuse`` the installed P may stand in for H
-        (module docstring); the solution reports the H used.
+        (module docstring); the solution reports the H used. A QP whose unconstrained minimiser
+        meets every row is answered exactly without OSQP (module docstring, "Interior solutions").
         """
         _local.solves = getattr(_local, "solves", 0) + 1
         inner = self._interior(H, g, a, l, u)
