@@ -165,7 +165,6 @@ class QPWorkspace:
             return QPSolution(None, None, None, status, iters)
         return QPSolution(x, y, H, "solved", iters, rs / scale)
 
-
     def _interior(self, H: np.ndarray, g: np.ndarray, a: np.ndarray, l: np.ndarray,
                   u: np.ndarray) -> QPSolution | None:
         """The exact solution x = a - H^-1 g [m/s^2] of :meth:`solve`'s QP when it meets every

@@ -18,7 +18,8 @@ leader's convex model in (y, x) this gives one QP in y, with the reduced Hessian
 [I; K]^T H_L [I; K] (convex), solved inside the leader's trust region (exactly when no bound is
 active, else with OSQP: :mod:`intersection_cosim.games.qp`). The active set is then checked at
 the new y (x(y) feasible, lam(y) of the right signs); if it changed, the follower's QP is
-re-solved at y by an active-set refinement, K rebuilt and the leader's QP solved again, until the active set settles (at most ``active_set_max_updates`` times).
+re-solved at y by an active-set refinement, K rebuilt and the leader's QP solved again, until the
+active set settles (at most ``active_set_max_updates`` times).
 
 Acceptance: the step y (then its halves) is first screened with the follower's predicted answer
 x(y); for the first promising one the follower re-optimises (``sqp_steps_per_iteration`` SQP

@@ -159,6 +159,37 @@ def test_qp_workspace_is_set_up_once_and_reused(gs):
     assert np.cumsum(sol2.x)[-1] * gs.problem.dt <= 5.0 + 1e-3
 
 
+def test_qp_with_no_active_bound_is_solved_exactly_and_one_with_an_active_bound_by_osqp(gs):
+    """An interior QP's answer is the exact minimiser a - H^-1 g (no ADMM iteration, zero
+    multipliers); when that minimiser breaks a bound, OSQP solves it with the bound active."""
+    n, dt = gs.problem.steps, gs.problem.dt
+    ws = QPWorkspace(n, gs)
+    rng = np.random.default_rng(4)
+    G = rng.normal(size=(n, n))
+    H = G @ G.T / n + 0.5 * np.eye(n)  # positive definite, coupled
+    a = np.full(n, 0.2)  # [m/s^2] the SQP iterate
+    x_star = a + rng.uniform(-0.3, 0.3, n)  # [m/s^2] the minimiser we build g for
+    g = H @ (a - x_star)
+    l, u = np.empty(2 * n), np.empty(2 * n)
+    l[n:], u[n:] = ws.speed_rows(8.0, 20.0, dt)  # v0 = 8 m/s, cap 20 m/s: never reached here
+    l[:n], u[:n] = gs.problem.a_min, gs.problem.a_max
+    sol = ws.solve(H, g, a, l, u)
+    assert sol.ok and sol.iterations == 0
+    assert np.abs(sol.x - x_star).max() < 1e-12
+    assert np.all(sol.y == 0.0)
+    # a trust region of 0.1 m/s^2 around a cuts the minimiser off: OSQP, with the bound active
+    l[:n], u[:n] = a - 0.1, a + 0.1
+    boxed = ws.solve(H, g, a, l, u)
+    assert boxed.ok and boxed.iterations > 0
+    assert np.all(boxed.x >= a - 0.1 - 1e-4) and np.all(boxed.x <= a + 0.1 + 1e-4)
+    assert np.abs(boxed.y[:n]).max() > 1e-3  # some box row carries a multiplier
+
+    def model(x):
+        return 0.5 * x @ H @ x + (g - H @ a) @ x
+    clipped = np.clip(x_star, a - 0.1, a + 0.1)
+    assert model(boxed.x) <= model(clipped) + 1e-6  # no worse than the clipped minimiser
+
+
 def test_qp_reports_infeasible_and_bad_data(gs):
     ws = QPWorkspace(gs.problem.steps, gs)
     n = gs.problem.steps
