@@ -141,19 +141,10 @@ class QPWorkspace:
             info = raw.info
             status_val, iters = int(info.status_val), int(info.iter)
             x, y = np.array(raw.solution.x), np.array(raw.solution.y)
-        else:  # public interface
-            if Hc is None:
-                self.solver.update(q=q, l=l, u=u, Px=scale * H.ravel()[self._flat])
-            else:
-                self.solver.update(q=q, l=l, u=u)
-            if y0 is None:
-                self.solver.warm_start(x=a)
-            else:
-                self.solver.warm_start(x=a, y=(scale / rs) * y0)
-            res = self.solver.solve(raise_error=False)
-            info = res.info
+        else:
+            info, x, y = self._solve_public(q, l, u, None if Hc is not None else scale * H.ravel()[self._flat],
+                                            a, None if y0 is None else (scale / rs) * y0)
             status_val, iters = int(info.status_val), int(info.iter)
-            x, y = np.array(res.x), np.array(res.y)
         self.solves += 1
         if Hc is None:
             self.H = H
@@ -164,6 +155,21 @@ class QPWorkspace:
             status = "non-finite solution" if status_val == _SOLVED else str(info.status)
             return QPSolution(None, None, None, status, iters)
         return QPSolution(x, y, H, "solved", iters, rs / scale)
+
+    def _solve_public(self, q, l, u, Px, a, y_scaled):
+        """OSQP's public interface where the extension object is not reachable: update (P values
+        only when ``Px`` is given), warm start at ``a`` (and ``y_scaled``), solve. Returns OSQP's
+        info, x and y (scaled problem)."""
+        if Px is None:
+            self.solver.update(q=q, l=l, u=u)
+        else:
+            self.solver.update(q=q, l=l, u=u, Px=Px)
+        if y_scaled is None:
+            self.solver.warm_start(x=a)
+        else:
+            self.solver.warm_start(x=a, y=y_scaled)
+        res = self.solver.solve(raise_error=False)
+        return res.info, np.array(res.x), np.array(res.y)
 
     def _interior(self, H: np.ndarray, g: np.ndarray, a: np.ndarray, l: np.ndarray,
                   u: np.ndarray) -> QPSolution | None:
