@@ -138,13 +138,11 @@ class QPWorkspace:
                 return QPSolution(None, None, None, f"data rejected (OSQP error {err})", 0)
             raw.warm_start(a, None if y0 is None else (scale / rs) * y0)
             raw.solve()
-            info = raw.info
-            status_val, iters = int(info.status_val), int(info.iter)
-            x, y = np.array(raw.solution.x), np.array(raw.solution.y)
+            info, x, y = raw.info, np.array(raw.solution.x), np.array(raw.solution.y)
         else:
             info, x, y = self._solve_public(q, l, u, None if Hc is not None else scale * H.ravel()[self._flat],
                                             a, None if y0 is None else (scale / rs) * y0)
-            status_val, iters = int(info.status_val), int(info.iter)
+        status_val, iters = int(info.status_val), int(info.iter)
         self.solves += 1
         if Hc is None:
             self.H = H
