@@ -11,7 +11,9 @@ reject every step. J_lat of a cross / confluence interaction counts at step k wh
 has passed its conflict point by more than ``conflict_clearance`` (its switch-off is a jump of the
 true cost that no smooth model sees: the equilibrium checks find their largest gains there, by
 clearing the point one step earlier). J_log counts for the follower of a following pair only.
-J_lk is the constant ``Player.j_lk`` of the player's discrete lane choice.
+J_lk is the constant ``Player.j_lk`` of the player's discrete lane choice. Each J_lat term with
+another player is weighted by the risk that partner poses, exp(k_lat_partner (kappa_q - 0.5))
+(:func:`partner_risk_weight`; 1 for a partner at kappa 0.5 and for a human driver).
 
 Convex model (the "convexification" of the SQP): J_e and the comfort terms are quadratic in a
 (speeds are affine in a) and enter exactly. J_lat (Eq. 19) and J_log (Eq. 15) are a scalar
@@ -50,6 +52,14 @@ EXOGENOUS = -1  # "other player" index of a non-player leader (Player.leader) in
 def _rcumsum(x: np.ndarray) -> np.ndarray:
     """Reverse cumulative sum: out[m] = sum_{k >= m} x[k]."""
     return x[::-1].cumsum()[::-1]
+
+
+def partner_risk_weight(kappa_partner: float, ms: ModelSettings) -> float:
+    """[-] weight of a player's J_lat term (Eq. 19) with a partner of aggressiveness
+    ``kappa_partner``: exp(k_lat_partner (kappa_partner - 0.5)), 1 for a partner at 0.5. The
+    risk a vehicle poses grows with its aggressiveness, as its potential field's amplitude a^q =
+    a_0 exp(kappa^q) does (Eq. 7); ``ModelSettings.k_lat_partner`` = 1 is that factor itself."""
+    return math.exp(ms.k_lat_partner * (kappa_partner - 0.5))
 
 
 @functools.lru_cache(maxsize=256)
@@ -134,6 +144,8 @@ class PlayerObjective:
             self._exo = (s_l - _length(pl.leader_length, ms), v_l)
         # crossing non-players (Player.crossers): their J_lat data is fixed, computed once
         self._lat_fixed = [self._lateral_data(scp, scp_q, s_q, v_q) for scp, scp_q, s_q, v_q in pl.crossers]
+        # [-] per lateral term with a player: the weight of the risk that partner poses
+        self._lat_weight = [partner_risk_weight(problem.players[q].kappa, ms) for q, _, _ in self.lat_terms]
         if self.w_lat <= 0.0:
             self.lat_terms, self._lat_fixed = [], []
         if self.w_log <= 0.0:
@@ -156,8 +168,8 @@ class PlayerObjective:
     # ------------------------------------------------------------------ data of the others
     def set_others(self, plans) -> None:
         """``plans[q]`` is player q's Plan (entries of players without a term are ignored)."""
-        self._lat = [self._lateral_data(scp, scp_q, plans[q].positions[1:], plans[q].speeds[1:])
-                     for q, scp, scp_q in self.lat_terms] + self._lat_fixed
+        self._lat = [self._lateral_data(scp, scp_q, plans[q].positions[1:], plans[q].speeds[1:], w)
+                     for (q, scp, scp_q), w in zip(self.lat_terms, self._lat_weight)] + self._lat_fixed
         self._log = []
         for q, offset in self.log_terms:
             if q == EXOGENOUS:
@@ -166,11 +178,15 @@ class PlayerObjective:
             self._log.append((plans[q].positions[1:] + (offset - self._lengths[q]),
                               plans[q].speeds[1:]))
 
-    def _lateral_data(self, scp: float, scp_q: float, s_q: np.ndarray, v_q: np.ndarray) -> tuple:
+    def _lateral_data(self, scp: float, scp_q: float, s_q: np.ndarray, v_q: np.ndarray,
+                      weight: float = 1.0) -> tuple:
         """J_lat data of one crossing: (s_cp own [m], the other's TCP (N,) [s] (Eqs. 21-22), the
-        other not yet past its point by conflict_clearance (N,)) from its positions ``s_q`` [m]
-        and speeds ``v_q`` [m/s] over the horizon."""
-        return (scp, time_to_conflict_point(scp_q - s_q, v_q, self._floor), (s_q - scp_q) <= self._clr)
+        other not yet past its point by conflict_clearance (N,): bool, or the term's ``weight``
+        [-] (:func:`partner_risk_weight`) there and 0 after) from its positions ``s_q`` [m] and
+        speeds ``v_q`` [m/s] over the horizon."""
+        open_q = (s_q - scp_q) <= self._clr
+        return (scp, time_to_conflict_point(scp_q - s_q, v_q, self._floor),
+                open_q if weight == 1.0 else weight * open_q)
 
     def plan(self, a: np.ndarray, duals: np.ndarray | None = None) -> Plan:
         """The player's Plan for accelerations ``a`` (N,)."""
@@ -205,7 +221,7 @@ class PlayerObjective:
         j_lat = 0.0
         for scp, tcp_q, open_q in self._lat:
             tcp = time_to_conflict_point(scp - s, v, self._floor)
-            j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, self._eps, (s <= scp + self._clr) & open_q)
+            j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, self._eps, (s <= scp + self._clr) * open_q)
         return self._finish(a, v, s, j_lat)
 
     def _finish(self, a, v, s, j_lat):
@@ -238,7 +254,7 @@ class PlayerObjective:
             for scp, tcp_q, open_q in self._lat:
                 d = scp - s
                 tcp = time_to_conflict_point(d, v, self._floor)
-                active = (s <= scp + self._clr) & open_q
+                active = (s <= scp + self._clr) * open_q
                 j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, self._eps, active)
                 self._lateral_model(tcp - tcp_q, d, v, inv, active, grad, H)
         for s_lead, v_lead in self._log:
@@ -255,7 +271,7 @@ class PlayerObjective:
                 inv = 1.0 / np.maximum(v, self._floor)
                 for scp, tcp_q, open_q in self._lat:
                     d = scp - s
-                    self._lateral_model(d * inv - tcp_q, d, v, inv, (s <= scp + self._clr) & open_q,
+                    self._lateral_model(d * inv - tcp_q, d, v, inv, (s <= scp + self._clr) * open_q,
                                         grad, H)
             for s_lead, v_lead in self._log:
                 self._following_model(s_lead, v_lead, v, s, grad, H)
@@ -277,7 +293,7 @@ class PlayerObjective:
             for scp, tcp_q, open_q in self._lat:
                 d = scp - s
                 tcp = time_to_conflict_point(d, v, self._floor)
-                active = (s <= scp + self._clr) & open_q
+                active = (s <= scp + self._clr) * open_q
                 j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, eps, active)
                 if active.any():
                     g = tcp - tcp_q
@@ -385,7 +401,7 @@ class PlayerObjective:
             fixed = [(EXOGENOUS, math.nan, math.nan)] * len(self._lat_fixed)  # never q
             for (other, _scp, scp_q), (scp, tcp_q, open_q) in zip(self.lat_terms + fixed, self._lat):
                 d = scp - s
-                active = (s <= scp + self._clr) & open_q
+                active = (s <= scp + self._clr) * open_q
                 if not active.any():
                     continue
                 g = d * inv - tcp_q

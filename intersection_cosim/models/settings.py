@@ -54,6 +54,11 @@ class ModelSettings:
     # [-] weight of lateral safety J_lat (Eq. 14): strong enough against J_e at TTC_lat ~2 s for
     # the games to trade speed for margin by kappa (calibrated with t_p)
     k_lat: float = 5.0
+    # [-] how strongly a partner's aggressiveness scales the risk it poses: each J_lat term of a
+    # player is weighted by exp(k_lat_partner (kappa_q - 0.5)), kappa_q the partner's (the
+    # potential field of a more aggressive vehicle is stronger, a^q = a_0 exp(kappa^q), Eq. 7);
+    # 0: every partner alike (Eq. 19 as written), 1: Eq. 7's factor
+    k_lat_partner: float = 2.0
     k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
     k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23; calibrated on Case 2)
     k_phi_lk: float = 0.5  # [1/rad^2] weight of the heading error in J_lk (Eq. 23)
@@ -80,7 +85,7 @@ class ModelSettings:
                             "straight_steer", "prediction_dt", "lane_speed_decel")
         if self.prediction_degree < 1:
             problems.append(("prediction_degree", "must be >= 1"))
-        problems += non_negative(self, "t_p_kappa", "b", "c", "gamma_sf", "k_log", "k_lat", "k_lk", "k_y_lk",
+        problems += non_negative(self, "t_p_kappa", "b", "c", "gamma_sf", "k_log", "k_lat", "k_lat_partner", "k_lk", "k_y_lk",
                                  "k_phi_lk", "k_e", "conflict_clearance")
         return problems
 

@@ -45,8 +45,8 @@ def test_rollout_is_exact_discretisation(gs):
     assert plan.speeds[1:] == pytest.approx(v_ref)
 
 
-def _cross_objective(gs, ms, kappa=0.5, other_a=None):
-    problem = Problem((Player(0.0, 6.0, kappa), Player(2.0, 5.0, 0.5)),
+def _cross_objective(gs, ms, kappa=0.5, other_a=None, other_kappa=0.5):
+    problem = Problem((Player(0.0, 6.0, kappa), Player(2.0, 5.0, other_kappa)),
                       (Interaction.cross(0, 1, 14.0, 12.0),))
     obj = PlayerObjective(problem, 0, gs, ms)
     other = Plan.from_accelerations(2.0, 5.0, np.zeros(gs.problem.steps) if other_a is None else other_a, gs.problem.dt)
@@ -68,13 +68,23 @@ def test_true_cost_is_the_paper_running_cost(gs, ms):
     assert obj.cost(a) == pytest.approx(gs.problem.dt * (np.sum(j) + comfort), rel=1e-12)
     # batched evaluation agrees
     assert obj.cost(np.stack([a, 0 * a]))[0] == pytest.approx(obj.cost(a), rel=1e-12)
+    # a partner at kappa 0.8 weighs its J_lat term by exp(k_lat_partner * 0.3) = 1.82 (Eq. 7's form)
+    _, bold, _ = _cross_objective(gs, ms, other_kappa=0.8)
+    j_lat = lateral_safety_cost(tcp0, tcp1, ms.eps, active)
+    extra = gs.problem.dt * 0.5 * ms.k_lat * (np.exp(ms.k_lat_partner * 0.3) - 1.0) * np.sum(j_lat)
+    assert np.exp(ms.k_lat_partner * 0.3) == pytest.approx(1.822, abs=1e-3)
+    assert bold.cost(a) - obj.cost(a) == pytest.approx(extra, rel=1e-9)
+    assert extra > 0.01
 
 
-@pytest.mark.parametrize("kind", ["cross", "following"])
+@pytest.mark.parametrize("kind", ["cross", "cross with an aggressive partner", "following"])
 def test_gradient_matches_finite_differences(gs, ms, kind):
+    """The convex model's slope is the true cost's (central differences), for both players' plans;
+    with a partner at kappa 0.85 its J_lat term carries the partner's risk weight (2.0)."""
     rng = np.random.default_rng(3)
-    if kind == "cross":
-        problem, obj, other = _cross_objective(gs, ms, other_a=rng.uniform(-1, 1, gs.problem.steps))
+    if kind.startswith("cross"):
+        problem, obj, other = _cross_objective(gs, ms, other_a=rng.uniform(-1, 1, gs.problem.steps),
+                                               other_kappa=0.85 if "aggressive" in kind else 0.5)
     else:
         problem = Problem((Player(0.0, 7.0, 0.4), Player(25.0, 4.0, 0.5)), (Interaction.following(0, 1),))
         obj = PlayerObjective(problem, 0, gs, ms)

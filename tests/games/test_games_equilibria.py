@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ from intersection_cosim.games import (GameSettings, Interaction, Player, Problem
                                       check_nash, check_stackelberg, nash_equilibrium,
                                       shift_plans, stackelberg_equilibrium, stackelberg_leader)
 from intersection_cosim.games.battery import advance
+from intersection_cosim.games.qp import reset_workspaces
 from intersection_cosim.games.settings import SolverSettings
 from intersection_cosim.models.cost import time_to_conflict_point
 
@@ -104,6 +107,32 @@ def test_higher_kappa_faster_and_closer(gs, ms):
     assert np.all(np.diff(speeds) > 0.1), speeds
     assert np.all(np.diff(ttcs) < 1e-4), ttcs
     assert ttcs[1] - ttcs[2] > 0.03 and ttcs[2] - ttcs[3] > 0.1, ttcs
+
+
+def test_a_yielder_keeps_more_margin_from_an_aggressive_partner(gs, ms):
+    """The risk a partner poses grows with its kappa (ModelSettings.k_lat_partner, Eq. 7's
+    exp(kappa) field amplitude): player 1 (kappa 0.5, 14 m from the point) yields to player 0
+    (12 m, faster). At k_lat_partner = 0 its margin is its own trade-off whoever comes (1.06 s
+    against kappa 0.2 and 0.8 alike); at the default 2 it slows more for an aggressive player 0
+    (mean speed 3.8 against 4.9 m/s for a cautious one) and keeps 1.12 s instead of 0.99 s. A
+    partner at kappa 0.5 weighs 1: the same equilibrium either way."""
+    assert ms.k_lat_partner == 2.0
+    flat = dataclasses.replace(ms, k_lat_partner=0.0)
+
+    def solve(kappa0, settings):
+        problem = Problem((Player(0.0, 6.0, kappa0), Player(0.0, 5.0, 0.5)), (Interaction.cross(0, 1, 12.0, 14.0),))
+        reset_workspaces()  # no OSQP warm start from the solve before: comparable bit for bit
+        result = nash_equilibrium(problem, gs, settings)
+        assert result.status == "converged"
+        return result.plans[1].mean_speed, _min_lateral_ttc(problem, result, settings), result
+
+    (v_c, m_c, _), (v_m, m_m, r_m), (v_a, m_a, _) = (solve(k, ms) for k in (0.2, 0.5, 0.8))
+    assert v_a < v_m - 0.5 and v_m < v_c - 0.3, (v_c, v_m, v_a)  # [m/s] the yielder's mean speed
+    assert m_a > m_m + 0.04 and m_m > m_c + 0.04, (m_c, m_m, m_a)  # [s] its margin
+    (_, f_c, _), (_, f_m, f_r), (_, f_a, _) = (solve(k, flat) for k in (0.2, 0.5, 0.8))
+    assert max(f_c, f_m, f_a) - min(f_c, f_m, f_a) < 0.01, (f_c, f_m, f_a)
+    assert m_a - m_c > 0.1
+    assert np.array_equal(r_m.accelerations, f_r.accelerations)
 
 
 def test_warm_start_median_iterations(pair_battery, nash_battery, gs, ms):
