@@ -148,8 +148,10 @@ def test_warm_start_median_iterations(pair_battery, nash_battery, gs, ms):
 
 
 def test_warm_start_reproduces_converged_plans(pair_battery, nash_battery, gs, ms):
-    """Warm-starting the same problem from its own equilibrium converges in one iteration."""
-    for problem, result in list(zip(pair_battery, nash_battery))[:10]:
+    """Warm-starting the same problem from its own equilibrium converges at once and stays there,
+    for every pair of the battery (before the iteration restored a collapsed trust region before
+    stopping, 4 of the 60 moved by 0.6-1.5 m/s^2: their cold stop was not an equilibrium)."""
+    for problem, result in zip(pair_battery, nash_battery):
         again = nash_equilibrium(problem, gs, ms, warm_start=result)
         assert again.iterations <= 2
         assert again.accelerations == pytest.approx(result.accelerations, abs=gs.solver.nash_cost_guard)
