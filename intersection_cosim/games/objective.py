@@ -13,7 +13,8 @@ true cost that no smooth model sees: the equilibrium checks find their largest g
 clearing the point one step earlier). J_log counts for the follower of a following pair only.
 J_lk is the constant ``Player.j_lk`` of the player's discrete lane choice. Each J_lat term with
 another player is weighted by the risk that partner poses, exp(k_lat_partner (kappa_q - 0.5))
-(:func:`partner_risk_weight`; 1 for a partner at kappa 0.5 and for a human driver).
+(:func:`partner_risk_weight`; 1 for a partner at kappa 0.5 and for a human driver), and every
+J_lat term of player i by its own discount exp(-k_lat_own (kappa_i - 0.5)) (:func:`own_risk_weight`).
 
 Convex model (the "convexification" of the SQP): J_e and the comfort terms are quadratic in a
 (speeds are affine in a) and enter exactly. J_lat (Eq. 19) and J_log (Eq. 15) are a scalar
@@ -60,6 +61,15 @@ def partner_risk_weight(kappa_partner: float, ms: ModelSettings) -> float:
     risk a vehicle poses grows with its aggressiveness, as its potential field's amplitude a^q =
     a_0 exp(kappa^q) does (Eq. 7); ``ModelSettings.k_lat_partner`` = 1 is that factor itself."""
     return math.exp(ms.k_lat_partner * (kappa_partner - 0.5))
+
+
+def own_risk_weight(kappa_own: float, ms: ModelSettings) -> float:
+    """[-] weight of every J_lat term (Eq. 19) of a player of aggressiveness ``kappa_own``:
+    exp(-k_lat_own (kappa_own - 0.5)), 1 at 0.5. An aggressive player discounts the risk it takes,
+    a cautious one heightens it; ``ModelSettings.k_lat_own`` = 1 is Eq. 7's factor of its own
+    field, a^p = a_0 exp(kappa^p), so with k_lat_partner = 1 too a term weighs the partner's
+    field against the player's own."""
+    return math.exp(-ms.k_lat_own * (kappa_own - 0.5))
 
 
 @functools.lru_cache(maxsize=256)
@@ -142,10 +152,12 @@ class PlayerObjective:
                 raise ValueError(f"player {p}: leader trajectory must have {self.n} steps")
             self.log_terms.append((EXOGENOUS, 0.0))
             self._exo = (s_l - _length(pl.leader_length, ms), v_l)
-        # crossing non-players (Player.crossers): their J_lat data is fixed, computed once
-        self._lat_fixed = [self._lateral_data(scp, scp_q, s_q, v_q) for scp, scp_q, s_q, v_q in pl.crossers]
-        # [-] per lateral term with a player: the weight of the risk that partner poses
-        self._lat_weight = [partner_risk_weight(problem.players[q].kappa, ms) for q, _, _ in self.lat_terms]
+        own = own_risk_weight(self.kappa, ms)  # [-] the player's own discount of every J_lat term
+        # crossing non-players (Player.crossers, human drivers: partners at kappa 0.5): their J_lat
+        # data is fixed, computed once
+        self._lat_fixed = [self._lateral_data(scp, scp_q, s_q, v_q, own) for scp, scp_q, s_q, v_q in pl.crossers]
+        # [-] per lateral term with a player: the weight of the risk that partner poses, discounted
+        self._lat_weight = [partner_risk_weight(problem.players[q].kappa, ms) * own for q, _, _ in self.lat_terms]
         if self.w_lat <= 0.0:
             self.lat_terms, self._lat_fixed = [], []
         if self.w_log <= 0.0:

@@ -57,8 +57,16 @@ class ModelSettings:
     # [-] how strongly a partner's aggressiveness scales the risk it poses: each J_lat term of a
     # player is weighted by exp(k_lat_partner (kappa_q - 0.5)), kappa_q the partner's (the
     # potential field of a more aggressive vehicle is stronger, a^q = a_0 exp(kappa^q), Eq. 7);
-    # 0: every partner alike (Eq. 19 as written), 1: Eq. 7's factor
-    k_lat_partner: float = 2.0
+    # 0: every partner alike (Eq. 19 as written), 1: Eq. 7's factor. 3 (was 2 until the Nash
+    # iteration restored collapsed trust regions; from 2.5 on one test pair's cold stop was not
+    # reproducible): Case 1 C/A >= 1.15 by min TTC, Case 2 B/A 1.8 by PET (docs/design.md round 7)
+    k_lat_partner: float = 3.0
+    # [-] how strongly a player's own aggressiveness discounts the risk it takes: each of its J_lat
+    # terms (with an AV or a human crosser) is also weighted by exp(-k_lat_own (kappa_p - 0.5)),
+    # kappa_p its own; 1 is Eq. 7's factor of its own field, so a term weighs the partner's field
+    # against its own. 0: Eq. 13's (1 - kappa) alone. Without it a kappa-0.5 Stackelberg leader
+    # met cautious followers with less margin than under Nash (Case 1 B, docs/design.md round 7)
+    k_lat_own: float = 1.0
     k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
     k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23; calibrated on Case 2)
     k_phi_lk: float = 0.5  # [1/rad^2] weight of the heading error in J_lk (Eq. 23)
@@ -85,7 +93,7 @@ class ModelSettings:
                             "straight_steer", "prediction_dt", "lane_speed_decel")
         if self.prediction_degree < 1:
             problems.append(("prediction_degree", "must be >= 1"))
-        problems += non_negative(self, "t_p_kappa", "b", "c", "gamma_sf", "k_log", "k_lat", "k_lat_partner", "k_lk", "k_y_lk",
+        problems += non_negative(self, "t_p_kappa", "b", "c", "gamma_sf", "k_log", "k_lat", "k_lat_partner", "k_lat_own", "k_lk", "k_y_lk",
                                  "k_phi_lk", "k_e", "conflict_clearance")
         return problems
 

@@ -14,7 +14,7 @@ from intersection_cosim.games import (GameSettings, Interaction, Plan, Player, P
 from intersection_cosim.games.settings import ProblemSettings, SolverSettings
 from intersection_cosim.games.sqp import sqp_best_response
 from intersection_cosim.games.dynamics import rollout
-from intersection_cosim.games.objective import PlayerObjective
+from intersection_cosim.games.objective import PlayerObjective, comfort_weight
 from intersection_cosim.games.problem import project_accelerations
 from intersection_cosim.games.qp import QPWorkspace, workspace
 from intersection_cosim.models.cost import (efficiency_cost, lateral_safety_cost, running_cost,
@@ -68,22 +68,32 @@ def test_true_cost_is_the_paper_running_cost(gs, ms):
     assert obj.cost(a) == pytest.approx(gs.problem.dt * (np.sum(j) + comfort), rel=1e-12)
     # batched evaluation agrees
     assert obj.cost(np.stack([a, 0 * a]))[0] == pytest.approx(obj.cost(a), rel=1e-12)
-    # a partner at kappa 0.8 weighs its J_lat term by exp(k_lat_partner * 0.3) = 1.82 (Eq. 7's form)
+    # a partner at kappa 0.8 weighs its J_lat term by exp(k_lat_partner * 0.3) = 2.46 (Eq. 7's form)
     _, bold, _ = _cross_objective(gs, ms, other_kappa=0.8)
     j_lat = lateral_safety_cost(tcp0, tcp1, ms.eps, active)
     extra = gs.problem.dt * 0.5 * ms.k_lat * (np.exp(ms.k_lat_partner * 0.3) - 1.0) * np.sum(j_lat)
-    assert np.exp(ms.k_lat_partner * 0.3) == pytest.approx(1.822, abs=1e-3)
+    assert np.exp(ms.k_lat_partner * 0.3) == pytest.approx(2.460, abs=1e-3)
     assert bold.cost(a) - obj.cost(a) == pytest.approx(extra, rel=1e-9)
     assert extra > 0.01
+    # a player at kappa 0.8 itself: (1 - kappa) J_lat, discounted by exp(-k_lat_own * 0.3) = 0.74
+    _, own, _ = _cross_objective(gs, ms, kappa=0.8)
+    j_e = efficiency_cost(v, ms.v_max, ms.k_e)
+    j_own = 0.2 * ms.k_lat * np.exp(-ms.k_lat_own * 0.3) * lateral_safety_cost(tcp0, tcp1, ms.eps, active) + 0.8 * j_e
+    comfort_own = comfort_weight(gs.problem, 0.8) * np.sum(a**2) + gs.problem.w_jerk / gs.problem.dt**2 * np.sum(np.diff(a) ** 2)
+    assert np.exp(-ms.k_lat_own * 0.3) == pytest.approx(0.741, abs=1e-3)
+    assert own.cost(a) == pytest.approx(gs.problem.dt * (np.sum(j_own) + comfort_own), rel=1e-12)
 
 
-@pytest.mark.parametrize("kind", ["cross", "cross with an aggressive partner", "following"])
+@pytest.mark.parametrize("kind", ["cross", "cross with an aggressive partner", "cross by a cautious player",
+                                  "following"])
 def test_gradient_matches_finite_differences(gs, ms, kind):
     """The convex model's slope is the true cost's (central differences), for both players' plans;
-    with a partner at kappa 0.85 its J_lat term carries the partner's risk weight (2.0)."""
+    with a partner at kappa 0.85 its J_lat term carries the partner's risk weight (2.9), by a
+    player at kappa 0.25 its own (1.28)."""
     rng = np.random.default_rng(3)
     if kind.startswith("cross"):
-        problem, obj, other = _cross_objective(gs, ms, other_a=rng.uniform(-1, 1, gs.problem.steps),
+        problem, obj, other = _cross_objective(gs, ms, kappa=0.25 if "cautious" in kind else 0.5,
+                                               other_a=rng.uniform(-1, 1, gs.problem.steps),
                                                other_kappa=0.85 if "aggressive" in kind else 0.5)
     else:
         problem = Problem((Player(0.0, 7.0, 0.4), Player(25.0, 4.0, 0.5)), (Interaction.following(0, 1),))

@@ -113,10 +113,10 @@ def test_a_yielder_keeps_more_margin_from_an_aggressive_partner(gs, ms):
     """The risk a partner poses grows with its kappa (ModelSettings.k_lat_partner, Eq. 7's
     exp(kappa) field amplitude): player 1 (kappa 0.5, 14 m from the point) yields to player 0
     (12 m, faster). At k_lat_partner = 0 its margin is its own trade-off whoever comes (1.06 s
-    against kappa 0.2 and 0.8 alike); at the default 2 it slows more for an aggressive player 0
-    (mean speed 3.8 against 4.9 m/s for a cautious one) and keeps 1.12 s instead of 0.99 s. A
+    against kappa 0.2 and 0.8 alike); at the default 3 it slows more for an aggressive player 0
+    (mean speed 3.35 against 5.2 m/s for a cautious one) and keeps 1.11 s instead of 0.95 s. A
     partner at kappa 0.5 weighs 1: the same equilibrium either way."""
-    assert ms.k_lat_partner == 2.0
+    assert ms.k_lat_partner == 3.0
     flat = dataclasses.replace(ms, k_lat_partner=0.0)
 
     def solve(kappa0, settings):
@@ -132,6 +132,29 @@ def test_a_yielder_keeps_more_margin_from_an_aggressive_partner(gs, ms):
     (_, f_c, _), (_, f_m, f_r), (_, f_a, _) = (solve(k, flat) for k in (0.2, 0.5, 0.8))
     assert max(f_c, f_m, f_a) - min(f_c, f_m, f_a) < 0.01, (f_c, f_m, f_a)
     assert m_a - m_c > 0.1
+    assert np.array_equal(r_m.accelerations, f_r.accelerations)
+
+
+def test_a_players_own_aggressiveness_discounts_its_risk(gs, ms):
+    """Its own kappa discounts every J_lat term of a player (ModelSettings.k_lat_own, Eq. 7's
+    exp(kappa) of its own field): player 1 (14 m from the point) yields to player 0 (kappa 0.5,
+    12 m, faster). Against k_lat_own = 0, a cautious yielder (kappa 0.2) slows more (2.69 against
+    2.93 m/s) and an aggressive one (0.8) less (6.09 against 5.86 m/s), keeping 0.90 s of margin
+    instead of 0.93 s; at kappa 0.5 the weight is 1 and the equilibrium the same bit for bit."""
+    assert ms.k_lat_own == 1.0
+    flat = dataclasses.replace(ms, k_lat_own=0.0)
+
+    def solve(kappa1, settings):
+        problem = Problem((Player(0.0, 6.0, 0.5), Player(0.0, 5.0, kappa1)), (Interaction.cross(0, 1, 12.0, 14.0),))
+        reset_workspaces()  # no OSQP warm start from the solve before: comparable bit for bit
+        result = nash_equilibrium(problem, gs, settings)
+        assert result.status == "converged"
+        return result.plans[1].mean_speed, _min_lateral_ttc(problem, result, settings), result
+
+    (v_c, _, _), (_, _, r_m), (v_a, m_a, _) = (solve(k, ms) for k in (0.2, 0.5, 0.8))
+    (f_c, _, _), (_, _, f_r), (f_a, n_a, _) = (solve(k, flat) for k in (0.2, 0.5, 0.8))
+    assert v_c < f_c - 0.15 and v_a > f_a + 0.15, (v_c, f_c, v_a, f_a)  # [m/s] the yielder's mean speed
+    assert m_a < n_a - 0.02, (m_a, n_a)  # [s] the aggressive yielder's margin
     assert np.array_equal(r_m.accelerations, f_r.accelerations)
 
 
