@@ -187,7 +187,7 @@ def _iterate(game: EquilibriumSolve, plans: list[Plan], deadline: float | None, 
             history.append(game.costs(plans))
         per_iteration = max(per_iteration, budget_clock.now() - start)
         if res < gs.solver.nash_tol or (res < gs.solver.nash_cost_guard and max(game.gain) < gs.solver.nash_cost_rtol):
-            if confirmed or not _collapsed(game):
+            if confirmed or res < gs.solver.nash_tol or not _collapsed(game):
                 status = "converged"
                 break
             confirmed = True  # once per solve: one more iteration with every radius restored
@@ -197,12 +197,13 @@ def _iterate(game: EquilibriumSolve, plans: list[Plan], deadline: float | None, 
 
 def _collapsed(game: EquilibriumSolve) -> bool:
     """Whether, in a game of two or more players, a player's trust region, carried from one
-    iteration to the next, has shrunk below a quarter of its initial radius: its last answers
-    were held to small steps while its partners moved, so a small gain does not show that it is
-    at its best response. The iteration then goes on once with the radii restored; without this
-    the stop rule accepted points a player could still improve on by up to 11 % (games battery
-    nos. 16 and 35), which a warm re-solve then left. A lone player's shrunk region is its own
-    SQP's verdict (no step lowers its cost), as :func:`solo_response` has it."""
+    iteration to the next, has shrunk below a quarter of its initial radius. When the iteration
+    stops on a small gain while a plan still moved (by nash_tol or more), that player's last
+    answers were held to small steps while its partners moved, so its small gain does not show
+    that it is at its best response. The iteration then goes on once with the radii restored;
+    without this the stop rule accepted points a player could still improve on by up to 11 %
+    (games battery nos. 16 and 35), which a warm re-solve then left. A lone player's shrunk
+    region is its own SQP's verdict (no step lowers its cost), as :func:`solo_response` has it."""
     return game.n > 1 and min(game.delta) < 0.25 * game.gs.solver.trust_region
 
 

@@ -86,11 +86,13 @@ def test_games_are_played_and_the_trigger_plays_fewer(paper_runs):
     pairs = pd.read_csv(paper_runs[("case1_A", "nash", False)] / "pairs.csv")
     assert (pairs["game_steps"] > 0).all()
     # and the work falls: QPs solved per control step (load-free, unlike the wall time) in Case 1 A,
-    # the paper's comparison (measured: 0.64 of the no-trigger figure for Nash, 0.52 for Stackelberg)
-    for c in ("nash", "stackelberg"):
+    # the paper's comparison (measured: 0.80 of the no-trigger figure for Nash, 0.59 for
+    # Stackelberg; Nash's was 0.72 before its iteration went on from a collapsed trust region
+    # instead of stopping, games/nash.py: three of the trigger's games then cost 11 QPs more)
+    for c, share in (("nash", 0.85), ("stackelberg", 0.7)):
         on, off = (pd.read_csv(paper_runs[("case1_A", c, etm)] / "steps.csv")["qp_solves"].mean()
                    for etm in (True, False))
-        assert 0 < on < 0.75 * off, (c, on, off)
+        assert 0 < on < share * off, (c, on, off)
 
 
 @pytest.mark.slow
