@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 from pathlib import Path
 from typing import Mapping
 
@@ -624,6 +625,44 @@ def tradeoff_points(table: pd.DataFrame, vehicle: str) -> pd.DataFrame:
     return points.rename(columns={axis: "kappa"}).sort_values(["controller", "kappa"], kind="stable")
 
 
+LABEL_OFFSETS = ((7, 5), (7, -12), (-7, 5), (-7, -12), (7, 15), (7, -22), (-7, 15), (-7, -22))  # [pt]
+
+
+def kappa_label_groups(px: np.ndarray, kappa: np.ndarray, near: float = 14.0) -> list[tuple[int, str]]:
+    """(index, text) labels of points at display positions ``px`` (n, 2) [px] in kappa order: a
+    run of consecutive points within ``near`` [px] of the run's first point is labelled once, at
+    its first point, with its kappa range ("kappa 0.7-0.9"); single labels would print over each
+    other (an aggressive end that the safety filter's gap holds in one place)."""
+    out, start = [], 0
+    for i in range(1, len(px) + 1):
+        if i < len(px) and math.hypot(*(px[i] - px[start])) <= near:
+            continue
+        text = f"{kappa[start]:g}" if i - 1 == start else f"{kappa[start]:g}-{kappa[i - 1]:g}"
+        out.append((start, f"$\\kappa$ {text}"))
+        start = i
+    return out
+
+
+def place_labels(ax, xy: np.ndarray, kappa: np.ndarray, taken: list) -> None:
+    """Annotate the points ``xy`` (n, 2, data units, kappa order) with their kappa values
+    (:func:`kappa_label_groups`), each label at the first offset of LABEL_OFFSETS whose box
+    overlaps no label placed before and no point's marker; ``taken``: boxes [px] already used."""
+    scale = ax.figure.dpi / 72.0  # [px/pt]
+    px = ax.transData.transform(xy)
+    taken.extend((x - 6, y - 6, x + 6, y + 6) for x, y in px)  # the markers
+    for k, (i, text) in enumerate(kappa_label_groups(px, kappa)):
+        width, height = 5.2 * len(text.replace("$\\kappa$", "k")) * scale, 9.0 * scale  # [px] of a fontsize-8 label
+        for dx, dy in LABEL_OFFSETS[k % 2:] + LABEL_OFFSETS[:k % 2]:  # alternate above and below first
+            x0 = px[i, 0] + dx * scale - (width if dx < 0 else 0.0)
+            y0 = px[i, 1] + dy * scale
+            box = (x0, y0, x0 + width, y0 + height)
+            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in taken):
+                break
+        taken.append(box)
+        ax.annotate(text, tuple(xy[i]), xytext=(dx, dy), textcoords="offset points", fontsize=8,
+                    ha="right" if dx < 0 else "left", gid="kappa-label")
+
+
 def draw_kappa_tradeoff(axes, table: pd.DataFrame, vehicle: str) -> pd.DataFrame:
     """Two panels: ``vehicle``'s travel time against its min TTC (``axes[0]``) and min PET
     (``axes[1]``), one point per kappa value labelled with it, joined in kappa order, one marker
@@ -633,22 +672,18 @@ def draw_kappa_tradeoff(axes, table: pd.DataFrame, vehicle: str) -> pd.DataFrame
     points = tradeoff_points(table, vehicle)
     norm = matplotlib.colors.Normalize(0.0, 1.0)
     cmap = plt.get_cmap("coolwarm")  # blue cautious, red aggressive
+    panels = []
     for ax, column, label in ((axes[0], "min_ttc", f"min TTC of {vehicle}'s conflicts, ours [s]"),
                               (axes[1], "min_pet", f"min PET of {vehicle}'s conflicts, SUMO SSM [s]")):
-        labelled = set()
+        labelled, todo = set(), []
         for i, (c, g) in enumerate(points.groupby("controller", sort=False)):
             g = g[np.isfinite(g[column]) & np.isfinite(g["travel_time"])]
             ax.plot(g["travel_time"], g[column], color="#7f7f7f", lw=0.9, zorder=2)
             ax.scatter(g["travel_time"], g[column], c=g["kappa"], cmap=cmap, norm=norm, s=70, zorder=3,
                        marker=TRAJECTORY_MARKERS[i % len(TRAJECTORY_MARKERS)], edgecolors="black", linewidths=0.6,
                        label=c)
-            for k, (_, r) in enumerate(g.iterrows()):  # labels alternate above and below: neighbours stay apart
-                if r["kappa"] in labelled:
-                    continue
-                labelled.add(r["kappa"])
-                ax.annotate(f"$\\kappa$ {r['kappa']:g}", (r["travel_time"], r[column]),
-                            xytext=(7, 5) if k % 2 == 0 else (7, -12), textcoords="offset points", fontsize=8,
-                            gid="kappa-label")
+            todo.append(g[~g["kappa"].isin(labelled)])
+            labelled.update(g["kappa"])
         if not np.isfinite(points[column]).any():
             ax.text(0.5, 0.5, "not recorded (no conflict measured)", ha="center", va="center",
                     transform=ax.transAxes)
@@ -660,6 +695,12 @@ def draw_kappa_tradeoff(axes, table: pd.DataFrame, vehicle: str) -> pd.DataFrame
                 color="#595959")
         if points["controller"].nunique() > 1:
             ax.legend(title="controller", fontsize=8, loc="lower right")
+        panels.append((ax, column, todo))
+    axes[0].figure.canvas.draw()  # the final limits and layout, so that the label boxes are in place
+    for ax, column, todo in panels:
+        taken: list = []
+        for g in todo:
+            place_labels(ax, g[["travel_time", column]].to_numpy(float), g["kappa"].to_numpy(float), taken)
     return points
 
 
@@ -667,11 +708,13 @@ def kappa_tradeoff(table: pd.DataFrame, vehicle: str, out_png: Path, title: str 
     """The paper's thesis in one picture (:func:`draw_kappa_tradeoff`): how ``vehicle``'s
     aggressiveness trades its safety margins for its passing time."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
-    points = draw_kappa_tradeoff(axes, table, vehicle)
+    # the colour bar and title first: the labels are placed in the final layout
     fig.colorbar(matplotlib.cm.ScalarMappable(norm=matplotlib.colors.Normalize(0, 1), cmap="coolwarm"),
                  ax=axes.tolist(), shrink=0.85, label=f"$\\kappa$ of {vehicle} (aggressiveness)")
-    span = f"{points['kappa'].min():g}-{points['kappa'].max():g}" if len(points) else "none"
+    kappas = tradeoff_points(table, vehicle)["kappa"]
+    span = f"{kappas.min():g}-{kappas.max():g}" if len(kappas) else "none"
     fig.suptitle(title or f"Aggressiveness against safety: {vehicle}'s kappa {span} (mean over seeds)", fontsize=11)
+    draw_kappa_tradeoff(axes, table, vehicle)
     return _save(fig, out_png)
 
 

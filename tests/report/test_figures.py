@@ -150,6 +150,32 @@ def test_kappa_values_are_labelled_once_when_two_controllers_share_them():
         assert labels == [f"$\\kappa$ {k:g}" for k in (0.1, 0.3, 0.5, 0.7, 0.9)]  # not printed twice
 
 
+def test_kappa_labels_of_points_in_one_place_are_one_range_and_never_overlap(tmp_path):
+    """The safety filter's gap holds an aggressive end in one place (V2 at kappa 0.7-0.9 within
+    0.05 s and 0.05 m/s of each other): one label "kappa 0.7-0.9" there, and no two label boxes
+    of a panel overlap in the written figure."""
+    rows = []
+    for k in (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9):
+        end = 0.05 * (k - 0.7) if k >= 0.7 else None  # [s] the held end moves by hundredths
+        rows.append({"run_id": f"nash-seed1-V2_{k:.2f}", "controller": "nash", "seed": 1, "kappa_V2": k,
+                     "travel_time_V2": 10.6 + end if end is not None else 13.0 - 3 * k,
+                     "min_ttc_V2_V3": 1.6 - end if end is not None else 3.6 - 2.6 * k,
+                     "pet_V1_V2": 0.55 - end if end is not None else 2.1 - 2.2 * k,
+                     "mean_travel_time": 11.0, "collisions": 0, "status": "ok"})
+    table = pd.DataFrame(rows)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
+    figures.draw_kappa_tradeoff(axes, table, "V2")
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in axes:
+        texts = [t for t in ax.texts if t.get_gid() == "kappa-label"]
+        assert [t.get_text() for t in texts] == [f"$\\kappa$ {k:g}" for k in (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)] + \
+            ["$\\kappa$ 0.7-0.9"]
+        boxes = [t.get_window_extent(renderer) for t in texts]
+        assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    assert figures.kappa_tradeoff(table, "V2", tmp_path / "t.png").stat().st_size > 10_000
+
+
 def test_values_of_two_controllers_at_one_kappa_are_written_above_and_below():
     one = _sweep_table()
     two = pd.concat([one, one.assign(controller="stackelberg", mean_travel_time=one["mean_travel_time"] + 0.05)],
