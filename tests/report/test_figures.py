@@ -152,8 +152,8 @@ def test_kappa_values_are_labelled_once_when_two_controllers_share_them():
 
 def test_kappa_labels_of_points_in_one_place_are_one_range_and_never_overlap(tmp_path):
     """The safety filter's gap holds an aggressive end in one place (V2 at kappa 0.7-0.9 within
-    0.05 s and 0.05 m/s of each other): one label "kappa 0.7-0.9" there, and no two label boxes
-    of a panel overlap in the written figure."""
+    0.01 s of each other in travel time and margin): one label "kappa 0.7-0.9" there, and no two
+    label boxes of a panel overlap once drawn."""
     rows = []
     for k in (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9):
         end = 0.05 * (k - 0.7) if k >= 0.7 else None  # [s] the held end moves by hundredths
