@@ -61,11 +61,12 @@ class ModelSettings:
     # iteration restored collapsed trust regions; from 2.5 on one test pair's cold stop was not
     # reproducible): Case 1 C/A >= 1.15 by min TTC, Case 2 B/A 1.8 by PET (docs/design.md round 7)
     k_lat_partner: float = 3.0
-    # [-] how strongly a player's own aggressiveness discounts the risk it takes: each of its J_lat
+    # [-] how strongly a player's own aggressiveness scales the risk it takes: each of its J_lat
     # terms (with an AV or a human crosser) is also weighted by exp(-k_lat_own (kappa_p - 0.5)),
     # kappa_p its own; 1 is Eq. 7's factor of its own field, so a term weighs the partner's field
-    # against its own. 0: Eq. 13's (1 - kappa) alone. Without it a kappa-0.5 Stackelberg leader
-    # met cautious followers with less margin than under Nash (Case 1 B, docs/design.md round 7)
+    # against its own. 0: Eq. 13's (1 - kappa) alone. The product of the two factors is floored
+    # at 1 (games/objective.py lateral_risk_weight): a player never cares less than Eq. 19 does.
+    # With it a cautious follower yields earlier and more (docs/design.md round 7)
     k_lat_own: float = 1.0
     k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
     k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23; calibrated on Case 2)

@@ -75,13 +75,17 @@ def test_true_cost_is_the_paper_running_cost(gs, ms):
     assert np.exp(ms.k_lat_partner * 0.3) == pytest.approx(2.460, abs=1e-3)
     assert bold.cost(a) - obj.cost(a) == pytest.approx(extra, rel=1e-9)
     assert extra > 0.01
-    # a player at kappa 0.8 itself: (1 - kappa) J_lat, discounted by exp(-k_lat_own * 0.3) = 0.74
-    _, own, _ = _cross_objective(gs, ms, kappa=0.8)
-    j_e = efficiency_cost(v, ms.v_max, ms.k_e)
-    j_own = 0.2 * ms.k_lat * np.exp(-ms.k_lat_own * 0.3) * lateral_safety_cost(tcp0, tcp1, ms.eps, active) + 0.8 * j_e
-    comfort_own = comfort_weight(gs.problem, 0.8) * np.sum(a**2) + gs.problem.w_jerk / gs.problem.dt**2 * np.sum(np.diff(a) ** 2)
-    assert np.exp(-ms.k_lat_own * 0.3) == pytest.approx(0.741, abs=1e-3)
-    assert own.cost(a) == pytest.approx(gs.problem.dt * (np.sum(j_own) + comfort_own), rel=1e-12)
+    # a player at kappa 0.2 itself: (1 - kappa) J_lat, weighted by exp(k_lat_own * 0.3) = 1.35;
+    # one at 0.8 would discount it to 0.74 and is held at 1 (never less than Eq. 19)
+    for kappa, factor in ((0.2, 1.350), (0.8, 1.0)):
+        _, own, _ = _cross_objective(gs, ms, kappa=kappa)
+        j_e = efficiency_cost(v, ms.v_max, ms.k_e)
+        exact = max(1.0, np.exp(-ms.k_lat_own * (kappa - 0.5)))
+        assert exact == pytest.approx(factor, abs=1e-3)
+        j_own = (1 - kappa) * ms.k_lat * exact * lateral_safety_cost(tcp0, tcp1, ms.eps, active) + kappa * j_e
+        comfort_own = (comfort_weight(gs.problem, kappa) * np.sum(a**2)
+                       + gs.problem.w_jerk / gs.problem.dt**2 * np.sum(np.diff(a) ** 2))
+        assert own.cost(a) == pytest.approx(gs.problem.dt * (np.sum(j_own) + comfort_own), rel=1e-12)
 
 
 @pytest.mark.parametrize("kind", ["cross", "cross with an aggressive partner", "cross by a cautious player",

@@ -114,8 +114,8 @@ def test_a_yielder_keeps_more_margin_from_an_aggressive_partner(gs, ms):
     exp(kappa) field amplitude): player 1 (kappa 0.5, 14 m from the point) yields to player 0
     (12 m, faster). At k_lat_partner = 0 its margin is its own trade-off whoever comes (1.06 s
     against kappa 0.2 and 0.8 alike); at the default 3 it slows more for an aggressive player 0
-    (mean speed 3.35 against 5.2 m/s for a cautious one) and keeps 1.11 s instead of 0.95 s. A
-    partner at kappa 0.5 weighs 1: the same equilibrium either way."""
+    (mean speed 3.35 against 4.23 m/s) and keeps 1.11 s instead of 1.07 s. A partner at kappa 0.5
+    weighs 1, and so does a cautious one (the weight's floor): the same equilibria either way."""
     assert ms.k_lat_partner == 3.0
     flat = dataclasses.replace(ms, k_lat_partner=0.0)
 
@@ -126,21 +126,22 @@ def test_a_yielder_keeps_more_margin_from_an_aggressive_partner(gs, ms):
         assert result.status == "converged"
         return result.plans[1].mean_speed, _min_lateral_ttc(problem, result, settings), result
 
-    (v_c, m_c, _), (v_m, m_m, r_m), (v_a, m_a, _) = (solve(k, ms) for k in (0.2, 0.5, 0.8))
-    assert v_a < v_m - 0.5 and v_m < v_c - 0.3, (v_c, v_m, v_a)  # [m/s] the yielder's mean speed
-    assert m_a > m_m + 0.04 and m_m > m_c + 0.04, (m_c, m_m, m_a)  # [s] its margin
-    (_, f_c, _), (_, f_m, f_r), (_, f_a, _) = (solve(k, flat) for k in (0.2, 0.5, 0.8))
+    (_, m_c, r_c), (v_m, m_m, r_m), (v_a, m_a, _) = (solve(k, ms) for k in (0.2, 0.5, 0.8))
+    assert v_a < v_m - 0.5, (v_m, v_a)  # [m/s] the yielder's mean speed
+    assert m_a > m_m + 0.04, (m_m, m_a)  # [s] its margin
+    (_, f_c, f_rc), (_, f_m, f_r), (_, f_a, _) = (solve(k, flat) for k in (0.2, 0.5, 0.8))
     assert max(f_c, f_m, f_a) - min(f_c, f_m, f_a) < 0.01, (f_c, f_m, f_a)
-    assert m_a - m_c > 0.1
+    assert m_a - m_c > 0.04
     assert np.array_equal(r_m.accelerations, f_r.accelerations)
+    assert np.array_equal(r_c.accelerations, f_rc.accelerations)
 
 
-def test_a_players_own_aggressiveness_discounts_its_risk(gs, ms):
-    """Its own kappa discounts every J_lat term of a player (ModelSettings.k_lat_own, Eq. 7's
-    exp(kappa) of its own field): player 1 (14 m from the point) yields to player 0 (kappa 0.5,
-    12 m, faster). Against k_lat_own = 0, a cautious yielder (kappa 0.2) slows more (2.69 against
-    2.93 m/s) and an aggressive one (0.8) less (6.09 against 5.86 m/s), keeping 0.90 s of margin
-    instead of 0.93 s; at kappa 0.5 the weight is 1 and the equilibrium the same bit for bit."""
+def test_a_cautious_player_weighs_its_risk_more_and_no_player_less(gs, ms):
+    """A player's own kappa scales its J_lat terms (ModelSettings.k_lat_own, Eq. 7's exp(kappa) of
+    its own field), never below Eq. 19's weight: player 1 (14 m from the point) yields to player 0
+    (kappa 0.5, 12 m, faster). Against k_lat_own = 0 a cautious yielder (kappa 0.2) slows more
+    (2.70 against 2.96 m/s); an aggressive one (0.8) would weigh the crossing at 0.74 and is
+    held at 1 by the floor, and at kappa 0.5 the weight is 1: the same equilibria bit for bit."""
     assert ms.k_lat_own == 1.0
     flat = dataclasses.replace(ms, k_lat_own=0.0)
 
@@ -151,11 +152,11 @@ def test_a_players_own_aggressiveness_discounts_its_risk(gs, ms):
         assert result.status == "converged"
         return result.plans[1].mean_speed, _min_lateral_ttc(problem, result, settings), result
 
-    (v_c, _, _), (_, _, r_m), (v_a, m_a, _) = (solve(k, ms) for k in (0.2, 0.5, 0.8))
-    (f_c, _, _), (_, _, f_r), (f_a, n_a, _) = (solve(k, flat) for k in (0.2, 0.5, 0.8))
-    assert v_c < f_c - 0.15 and v_a > f_a + 0.15, (v_c, f_c, v_a, f_a)  # [m/s] the yielder's mean speed
-    assert m_a < n_a - 0.02, (m_a, n_a)  # [s] the aggressive yielder's margin
+    (v_c, _, _), (_, _, r_m), (_, _, r_a) = (solve(k, ms) for k in (0.2, 0.5, 0.8))
+    (f_c, _, _), (_, _, f_r), (_, _, f_a) = (solve(k, flat) for k in (0.2, 0.5, 0.8))
+    assert v_c < f_c - 0.15, (v_c, f_c)  # [m/s] the cautious yielder's mean speed
     assert np.array_equal(r_m.accelerations, f_r.accelerations)
+    assert np.array_equal(r_a.accelerations, f_a.accelerations)
 
 
 def test_warm_start_median_iterations(pair_battery, nash_battery, gs, ms):
