@@ -204,7 +204,7 @@ class PlayerObjective:
                       weight: float = 1.0) -> tuple:
         """J_lat data of one crossing: (s_cp own [m], the other's TCP (N,) [s] (Eqs. 21-22), the
         other not yet past its point by conflict_clearance (N,): bool, or the term's ``weight``
-        [-] (:func:`partner_risk_weight`) there and 0 after) from its positions ``s_q`` [m] and
+        [-] (:func:`lateral_risk_weight`) there and 0 after) from its positions ``s_q`` [m] and
         speeds ``v_q`` [m/s] over the horizon."""
         open_q = (s_q - scp_q) <= self._clr
         return (scp, time_to_conflict_point(scp_q - s_q, v_q, self._floor),

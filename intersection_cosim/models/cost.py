@@ -72,8 +72,8 @@ def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
 
     ``active`` is False once either vehicle has passed the conflict point: the pair then has no
     lateral cost (the paper is silent on a passed point; our reading). A float array ``active``
-    is a weight per step (0 where not active) that multiplies the cost: the partner's risk
-    weight of ``games.objective.partner_risk_weight``.
+    is a weight per step (0 where not active) that multiplies the cost: the term's risk
+    weight of ``games.objective.lateral_risk_weight``.
     """
     ttc = np.subtract(tcp_i, tcp_j, dtype=float)  # TTC_lat (Eq. 20), as lateral_ttc
     out = np.where(active, 1.0 / (np.square(ttc) + eps), 0.0)
