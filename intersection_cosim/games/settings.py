@@ -33,9 +33,15 @@ class ProblemSettings:
     # dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), in the units of J_e.
     w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration at kappa = 0.5
     # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
-    # max(0, w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive driver accelerates and brakes
-    # harder and a cautious one keeps its plan smoother (0: the same for all; issue 20 measured 0.15, docs/design.md)
-    w_accel_kappa: float = 0.0
+    # max(w_accel_floor, w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive driver
+    # accelerates and brakes harder and a cautious one keeps its plan smoother (0: the same for
+    # all). 0.25: kappa 0.2 weighs 0.175, 0.8 0.025; with it the aggressive V1 of Case 1 C is
+    # faster than A's (9.20 against 9.40 s) when both play their games (docs/design.md round 8)
+    w_accel_kappa: float = 0.25
+    # [s^4/m^2] least comfort weight of any player: its best response stays strictly convex (a
+    # kappa-0.9 player would have none; behind a leader its cost is then flat to 1e-5 over plans
+    # 0.02 m/s^2 apart, so the answer depends on the solver's path)
+    w_accel_floor: float = 0.01
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
 
     @property
@@ -45,7 +51,7 @@ class ProblemSettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "horizon", "dt", "a_max", "comfort_brake")
-        problems += non_negative(self, "w_accel", "w_accel_kappa", "w_jerk")
+        problems += non_negative(self, "w_accel", "w_accel_kappa", "w_accel_floor", "w_jerk")
         if not self.a_min < 0:
             problems.append(("a_min", "must be < 0"))
         if self.horizon > 0 and self.dt > 0 and abs(self.horizon / self.dt - self.steps) > 1e-9:

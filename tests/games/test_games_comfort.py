@@ -18,9 +18,13 @@ def test_comfort_weight_falls_with_kappa_and_is_w_accel_at_one_half():
     assert comfort_weight(p, 0.5) == pytest.approx(0.1)
     assert comfort_weight(p, 0.2) == pytest.approx(0.145)
     assert comfort_weight(p, 0.9) == pytest.approx(0.04)
-    assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.5), 1.0) == 0.0  # floored
+    # never below w_accel_floor (0.01 by default, so every best response stays strictly convex)
+    assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.5), 1.0) == pytest.approx(0.01)
+    assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.5, w_accel_floor=0.0), 1.0) == 0.0
+    assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.25), 0.8) == pytest.approx(0.025)
     assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.0), 0.9) == pytest.approx(0.1)
     assert {f for f, _ in ProblemSettings(w_accel_kappa=-1.0).check()} == {"w_accel_kappa"}
+    assert {f for f, _ in ProblemSettings(w_accel_floor=-0.1).check()} == {"w_accel_floor"}
 
 
 def test_true_cost_charges_the_players_own_comfort_weight(ms):
@@ -31,7 +35,7 @@ def test_true_cost_charges_the_players_own_comfort_weight(ms):
         problem = Problem((Player(0.0, 6.0, kappa), Player(2.0, 5.0, 0.5)), (Interaction.cross(0, 1, 14.0, 12.0),))
         obj = PlayerObjective(problem, 0, gs, ms)
         obj.set_others([None, Plan.from_accelerations(2.0, 5.0, np.zeros(gs.problem.steps), gs.problem.dt)])
-        same_but_flat = dataclasses.replace(gs.problem, w_accel=0.0, w_accel_kappa=0.0)
+        same_but_flat = dataclasses.replace(gs.problem, w_accel=0.0, w_accel_kappa=0.0, w_accel_floor=0.0)
         obj_flat = PlayerObjective(problem, 0, GameSettings(problem=same_but_flat, solver=gs.solver), ms)
         obj_flat.set_others([None, Plan.from_accelerations(2.0, 5.0, np.zeros(gs.problem.steps), gs.problem.dt)])
         costs[kappa] = obj.cost(a) - obj_flat.cost(a)
