@@ -36,7 +36,7 @@ class ProblemSettings:
     # max(w_accel_floor, w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive driver
     # accelerates and brakes harder and a cautious one keeps its plan smoother (0: the same for
     # all). 0.25: kappa 0.2 weighs 0.175, 0.8 0.025; with it the aggressive V1 of Case 1 C is
-    # faster than A's (9.20 against 9.40 s) when both play their games (docs/design.md round 8)
+    # faster than A's (9.15 against 9.40 s) when both play their games (docs/design.md round 8)
     w_accel_kappa: float = 0.25
     # [s^4/m^2] least comfort weight of any player: its best response stays strictly convex (a
     # kappa-0.9 player would have none; behind a leader its cost is then flat to 1e-5 over plans
