@@ -240,9 +240,19 @@ def _event_pairs(risk, k_of: np.ndarray, ids, events: frozenset[tuple[str, str]]
     when there are none."""
     if not events:
         return None
-    a, b = k_of[risk.i], k_of[risk.j]
-    return np.fromiter(((min(ids[x], ids[y]), max(ids[x], ids[y])) in events for x, y in zip(a.tolist(), b.tolist())),
-                       bool, len(a))
+    return named_pairs(ids, events, k_of[risk.i], k_of[risk.j])
+
+
+def named_pairs(ids, names, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(len(a),) bool: whether the vehicle pair (a[m], b[m]) (World indices) is one of ``names``
+    (vehicle-id pairs, in either order). Each pair is one integer, lower index * n + higher,
+    matched with numpy instead of a Python loop over the pairs (thousands in a jam)."""
+    index = {vid: k for k, vid in enumerate(ids)}
+    n = len(ids)
+    named = [(index[x], index[y]) for x, y in names if x in index and y in index]  # vehicles still there
+    keys = np.fromiter((min(p) * n + max(p) for p in named), np.int64, len(named))
+    a, b = np.asarray(a, np.int64), np.asarray(b, np.int64)
+    return np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
 
 
 def _leaders(risk, d, k_of: np.ndarray, clear: float, length: np.ndarray) -> dict[int, Leader]:

@@ -69,7 +69,7 @@ import numpy as np
 
 from intersection_cosim.control.base import Decisions, World
 from intersection_cosim.control.plan_memory import human_forecast
-from intersection_cosim.control.relations import Lateral, Relations
+from intersection_cosim.control.relations import Lateral, Relations, named_pairs
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
@@ -347,8 +347,7 @@ class SafetyFilter:
         st = self.settings
         gap = st.safety_time_gap  # [s]
         if st.game_gap_share != 1.0 and self._games:
-            ids = world.ids
-            in_game = np.fromiter((self._in_game(ids[x], ids[y]) for x, y in zip(ki.tolist(), kj.tolist())), bool, len(ki))
+            in_game = named_pairs(world.ids, self._games, ki, kj)
             gap = np.where(in_game, st.time_gap(True), gap)
         apart = (in_i >= out_j + gap) | (in_j >= out_i + gap)
         if self.waits and world.human is not None and bool(np.any(world.human)):

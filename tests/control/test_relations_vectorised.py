@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from intersection_cosim.control.relations import Leader, Lateral, step_relations
+from intersection_cosim.control.relations import Leader, Lateral, named_pairs, step_relations
 from intersection_cosim.models.prediction import all_pairs
 from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings
@@ -93,3 +93,15 @@ def test_vectorised_relations_equal_the_loop(paths, movements, conflict_table, s
     assert rel.triggered_pairs() == frozenset(tuple(sorted((int(vehicle[lat.ri]), int(vehicle[lat.rj]))))
                                               for lat in lateral if lat.play)
     assert (leaders and lateral) or n < 10  # the worlds exercise both
+
+
+def test_named_pairs_matches_either_order_and_drops_vehicles_that_left():
+    """The events' and the filter's lookup of vehicle-id pairs among index pairs, vectorised:
+    the same answer as a per-pair set lookup of the sorted ids."""
+    ids = ["north_0", "east_1", "south_2", "west_3"]
+    names = frozenset({("east_1", "north_0"), ("south_2", "west_3"), ("gone_9", "north_0")})
+    a = np.array([0, 1, 3, 0, 2, 1])
+    b = np.array([1, 0, 2, 2, 2, 3])
+    expected = [(min(ids[x], ids[y]), max(ids[x], ids[y])) in names for x, y in zip(a, b)]
+    assert named_pairs(ids, names, a, b).tolist() == expected == [True, True, True, False, False, False]
+    assert not named_pairs(ids, frozenset(), a, b).any()
