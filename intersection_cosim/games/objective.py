@@ -86,8 +86,9 @@ def lateral_risk_weight(kappa_own: float, kappa_partner: float, ms: ModelSetting
 def comfort_weight(problem, kappa: float) -> float:
     """[s^4/m^2] a player's weight of the squared acceleration, by its aggressiveness ``kappa``
     (``ProblemSettings.w_accel`` at kappa = 0.5, falling by ``w_accel_kappa`` per unit of kappa,
-    never below ``w_accel_floor``)."""
-    return max(problem.w_accel_floor, problem.w_accel + problem.w_accel_kappa * (0.5 - kappa))
+    never below ``w_accel_floor`` nor raised by it above ``w_accel``)."""
+    floor = min(problem.w_accel_floor, problem.w_accel)  # [s^4/m^2]
+    return max(floor, problem.w_accel + problem.w_accel_kappa * (0.5 - kappa))
 
 
 @functools.lru_cache(maxsize=1024)  # one entry per kappa in play: built once per vehicle, not per solve

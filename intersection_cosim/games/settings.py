@@ -38,9 +38,10 @@ class ProblemSettings:
     # all). 0.25 with PolicySettings.filter_event and trigger_hold_gap meets issue 20's goals,
     # but those two are off by default (docs/design.md round 8)
     w_accel_kappa: float = 0.0
-    # [s^4/m^2] least comfort weight of any player (with w_accel_kappa > 0): its best response
-    # stays strictly convex (at w_accel_kappa 0.25 a kappa-0.9 player would have none; behind a
-    # leader its cost was then flat to 1e-5 over plans 0.02 m/s^2 apart)
+    # [s^4/m^2] least comfort weight of any player, where w_accel_kappa lowers it (it never
+    # raises a weight above w_accel): its best response stays strictly convex (at w_accel_kappa
+    # 0.25 a kappa-0.9 player would have none; behind a leader its cost was then flat to 1e-5
+    # over plans 0.02 m/s^2 apart)
     w_accel_floor: float = 0.01
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
 

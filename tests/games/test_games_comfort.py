@@ -23,6 +23,9 @@ def test_comfort_weight_falls_with_kappa_and_is_w_accel_at_one_half():
     assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.5, w_accel_floor=0.0), 1.0) == 0.0
     assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.25), 0.8) == pytest.approx(0.025)
     assert comfort_weight(ProblemSettings(w_accel=0.1, w_accel_kappa=0.0), 0.9) == pytest.approx(0.1)
+    # ... nor raised by it above w_accel: a user's own small w_accel stands
+    assert comfort_weight(ProblemSettings(w_accel=0.005), 0.5) == pytest.approx(0.005)
+    assert comfort_weight(ProblemSettings(w_accel=0.005, w_accel_kappa=0.1), 0.9) == pytest.approx(0.005)
     assert {f for f, _ in ProblemSettings(w_accel_kappa=-1.0).check()} == {"w_accel_kappa"}
     assert {f for f, _ in ProblemSettings(w_accel_floor=-0.1).check()} == {"w_accel_floor"}
 
