@@ -33,10 +33,10 @@ class ProblemSettings:
     # dt * (w_accel a^2 + w_jerk ((a_k - a_{k-1}) / dt)^2), in the units of J_e.
     w_accel: float = 0.1  # [s^4/m^2] weight of the squared acceleration at kappa = 0.5
     # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
-    # max(w_accel_floor, w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive driver
-    # accelerates and brakes harder and a cautious one keeps its plan smoother (0: the same for
-    # all). 0.25 with PolicySettings.filter_event and trigger_hold_gap meets issue 20's goals,
-    # but those two are off by default (docs/design.md round 8)
+    # max(min(w_accel_floor, w_accel), w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive
+    # driver accelerates and brakes harder and a cautious one keeps its plan smoother (0: the same
+    # for all). 0.25, with PolicySettings.filter_event, trigger_hold_gap 6 s, game_gap_share 0.4
+    # and k_lat_partner 3.5, meets issue 20's goals; those are off by default (docs/design.md round 8)
     w_accel_kappa: float = 0.0
     # [s^4/m^2] least comfort weight of any player, where w_accel_kappa lowers it (it never
     # raises a weight above w_accel): its best response stays strictly convex (at w_accel_kappa
