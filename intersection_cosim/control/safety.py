@@ -281,6 +281,8 @@ class SafetyFilter:
         if world.human is not None and bool(np.any(world.human)):
             for m in guarded:
                 self._hold_for_human(world, relations, pairs.at(m), plans, cap)
+        if self.settings.stalled_box_hold:
+            clear |= self._hold_out_of_stalled_box(world, relations, guarded, cap)
         for _pass in range(2):
             for vid in clear:
                 if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:
@@ -494,6 +496,51 @@ class SafetyFilter:
                 a = max(brake, -v_k / self.period) if v_k < st.clear_speed else brake - 1.0
             if a >= brake:
                 cap[world.ids[k]] = min(cap.get(world.ids[k], math.inf), a)
+
+    def _hold_out_of_stalled_box(self, world: World, relations: Relations, guarded: np.ndarray,
+                                 cap: dict[str, float]) -> set[str]:
+        """Cap (into ``cap``) an AV not yet in the junction to wait at its stop line while an AV
+        of one of its crossings (``guarded``, indices into ``relations.pairs``) is in the
+        junction, stalls (below ``clear_speed``, now or within ``stalled_box_lookahead`` at its
+        present deceleration) and has not left its zone of that crossing
+        (``SafetySettings.stalled_box_hold``). An entrant into a stalled box may itself be held
+        inside it, standing in one crossing before another: the third such entry closed a cycle
+        of waits that no rule inside the box can undo. The hold starts where a stop at the stop
+        line needs ``ProblemSettings.comfort_brake`` (a stall far ahead may clear before the
+        vehicle gets there); nothing for one that can no longer stop at its stop line, nor for one
+        whose front is already inside a crossing zone (a right turn at its stop line may be: the
+        vehicle of that crossing waits for it, so holding it closed a cycle). Returns
+        the stalled vehicles someone now waits for: they drive on (the box rule), or their own
+        plans, waiting for the held entrant (a game's order), would hold it for good."""
+        if not len(guarded) or not self.entered:
+            return set()
+        pairs, rows, ids, st = relations.pairs, relations.rows, world.ids, self.settings
+        inside = np.array([vid in self.entered and not world.is_human(k) for k, vid in enumerate(ids)], bool)
+        entrant = np.array([vid not in self.entered and not world.is_human(k) and world.role[k] == "ready"
+                            for k, vid in enumerate(ids)], bool)
+        v = np.asarray(world.v)  # [m/s]
+        soon = v + np.minimum(np.asarray(world.a), 0.0) * st.stalled_box_lookahead  # [m/s]
+        stalled = inside & (np.minimum(v, soon) < st.clear_speed)
+        reach = v * v / (2.0 * self.problem.comfort_brake) + v * self.period + 2.0 * st.safety_margin  # [m]
+        in_zone = np.zeros(len(ids), bool)  # its front inside one of its crossing zones
+        for r, zone in ((pairs.ri[guarded], pairs.zone_i[guarded]), (pairs.rj[guarded], pairs.zone_j[guarded])):
+            k = rows.vehicle[r]
+            in_zone[k[(zone[:, 0] <= world.s[k]) & (world.s[k] < zone[:, 1])]] = True
+        entrant &= ~in_zone
+        held = set()
+        for r_e, r_o, zone_o in ((pairs.ri, pairs.rj, pairs.zone_j), (pairs.rj, pairs.ri, pairs.zone_i)):
+            ke, ko = rows.vehicle[r_e[guarded]], rows.vehicle[r_o[guarded]]
+            s_stop = self.s_stop[rows.pidx[r_e[guarded]]]  # [m]
+            near = s_stop - world.s[ke] <= reach[ke]
+            m = entrant[ke] & stalled[ko] & (world.s[ko] < zone_o[guarded][:, 1]) & (world.s[ke] < s_stop) & near
+            held.update(zip(ke[m].tolist(), s_stop[m].tolist(), ko[m].tolist()))
+        waited_for = set()
+        for k, s_stop_k, o in sorted(held):
+            a = self._stay_out(world, k, s_stop_k, s_stop_k, st.safety_margin)
+            if a is not None:
+                cap[ids[k]] = min(cap.get(ids[k], math.inf), a)
+                waited_for.add(ids[o])
+        return waited_for
 
     def _human_stop(self, world: World, h: int, zone_h: tuple[float, float], s_wait: float,
                     plan_k: Plan | None, zone_k: tuple[float, float]) -> bool:

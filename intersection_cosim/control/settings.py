@@ -102,6 +102,15 @@ class SafetySettings:
     human_margin: float = 2.0  # [m] an AV in the junction yielding to a human stops this far before
     #                            their crossing zone (SUMO's conflict areas are lane-wide, wider than
     #                            a body, and SUMO holds a human for a vehicle whose front is in one)
+    # [-] an AV not yet in the junction waits at its stop line while an AV inside stands (below
+    # clear_speed) short of leaving their crossing: a stalled box takes no new entrant into its
+    # crossings, so waits inside it cannot grow into a cycle (three vehicles, each standing in the
+    # next one's crossing, locked demand_balanced_high under round 8's settings, docs/design.md)
+    stalled_box_hold: bool = False
+    # [s] for stalled_box_hold a vehicle in the junction stalls if its speed is below clear_speed
+    # now or will be within this time at its present deceleration (one crawling at 1.05 m/s and
+    # braking at 1.7 m/s^2 let a third vehicle in: the same cycle, 10 s later)
+    stalled_box_lookahead: float = 1.0
     exit_room: bool = True  # [-] don't block the box: hold a vehicle at its stop line while its exit
     #                         lane has less than vehicle_length + exit_min_gap free (control/exit_room.py)
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
@@ -117,6 +126,7 @@ class SafetySettings:
     def check(self) -> list[tuple[str, str]]:
         problems = [("game_gap_share", "must lie in [0, 1]")] if not 0 <= self.game_gap_share <= 1 else []
         problems += non_negative(self, "safety_time_gap", "safety_margin", "clear_accel", "clear_speed", "exit_min_gap",
+                                 "stalled_box_lookahead",
                                  "human_brake", "human_margin", "pedestrian_time_gap", "pedestrian_clearance",
                                  "pedestrian_margin")
         problems += [(name, "must be > 0") for name in ("pedestrian_speed_low", "pedestrian_speed_high")

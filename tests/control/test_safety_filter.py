@@ -7,7 +7,7 @@ import pytest
 
 from intersection_cosim.control.base import Decisions
 from intersection_cosim.control.relations import step_relations
-from intersection_cosim.control.safety import SafetyFilter
+from intersection_cosim.control.safety import SafetyFilter, braking_plan
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.settings import PolicySettings, SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
@@ -400,3 +400,72 @@ def test_a_vehicle_standing_in_the_first_ones_crossing_goes_before_the_vehicles_
     assert d.accel["T"] == pytest.approx(1.69)  # T goes: it stood in L's crossing
     assert d.accel["S"] < 0.0 and d.accel["N"] <= 0.0  # S yields to N, N to L
     assert d.accel["L"] <= 0.0  # L waits until T has left their crossing
+
+
+@pytest.mark.parametrize("v_b, a_b, s_b_past_zone, to_line, held", [
+    (0.0, 0.0, False, 8.0, True), (0.5, -1.0, False, 8.0, True), (1.8, -1.5, False, 8.0, True),
+    (3.0, 0.0, False, 8.0, False), (3.0, -1.5, False, 8.0, False), (0.0, 0.0, True, 8.0, False),
+    (0.0, 0.0, False, 30.0, False)])
+def test_a_stalled_box_takes_no_new_entrant_into_its_crossings(paths, movements, conflict_table, v_b, a_b,
+                                                              s_b_past_zone, to_line, held):
+    """stalled_box_hold: B is in the junction 3 m before its zone with A's left turn, standing,
+    or braking (a_b [m/s^2]) below clear_speed (1 m/s) now or within stalled_box_lookahead (1 s:
+    1.8 m/s at -1.5 m/s^2). A, 8 m before its stop line at 5 m/s, plans to cross before B could:
+    the plans alone keep the crossing clear, and with the setting off A keeps its +1 m/s^2. With
+    it A waits at its stop line (-5^2 / (2 x 7 m) = -1.79 m/s^2): entering, it could be held
+    inside the box in B's way (the third entry closed a cycle); and B, waited for, drives on at
+    clear_accel (its own plan, a game's, may wait for A). Once B moves on (3 m/s, 1.5 m/s after
+    1 s of braking) or has left its zone, the setting changes nothing; nor while A is 30 m away
+    (a stop would need only 0.4 m/s^2, under comfort_brake: the stall may clear first)."""
+    t = conflict_table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    s_a = float(t.s_stop[p]) - to_line  # [m]
+    s_b = float(t.zone_out[q, p]) + 0.5 if s_b_past_zone else float(t.zone_in[q, p]) - 3.0  # [m]
+    assert s_b > t.s_stop[q]
+    b_plan = braking_plan(Plan.from_accelerations(s_b, v_b, np.zeros(PROBLEM.steps), PROBLEM.dt), a_b)
+    result = {}
+    for on in (True, False):
+        f = SafetyFilter(dataclasses.replace(GS, stalled_box_hold=on), PROBLEM, MODEL, t.s_stop, 0.1)
+        world = make_world(paths, 1.0, [("A", LEFT, s_a, 5.0), ("B", STRAIGHT, s_b, v_b)])
+        world.role, world.a = ["ready", "passing"], np.array([1.0, a_b])
+        f.record_entries(world)
+        plans = {"A": Plan.from_accelerations(s_a, 5.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
+                 "B": b_plan}
+        d = Decisions(accel={"A": 1.0, "B": float(b_plan.accelerations[0])})
+        out = f.apply(world, _relations(world, movements, t), plans, {}, d)
+        result[on] = (d.accel["A"], "A" in out, d.accel["B"])
+    if held:
+        assert result[False] == (1.0, False, b_plan.accelerations[0])
+        stop = to_line - GS.safety_margin  # [m] 7 m
+        assert result[True][0] == pytest.approx(-5.0 ** 2 / (2 * stop), rel=1e-9) and result[True][1]
+        assert result[True][2] == GS.clear_accel  # B, waited for, drives on (its plan stood)
+    else:
+        assert result[True] == result[False]
+
+
+def test_a_stalled_box_does_not_hold_an_entrant_already_inside_a_crossing_zone(paths, movements, conflict_table):
+    """demand_balanced_high, nash, seed 2, 150 s, rebuilt: a right turn (R) stands at its stop line
+    (137.95 m), already inside its zone of the merge with a straight from the east (E): the
+    point 138.2 m less half a width. E, in the junction, stands 0.05 m short of its own zone and
+    must wait for R, who cannot stay out. stalled_box_hold must not hold R for the stalled E, or
+    each waits for the other for good: R keeps its plan, E is held, as without the setting."""
+    t = conflict_table
+    e_path, r_path = "east_outer_straight_outer", "north_outer_right_outer"
+    s_e, s_r = 157.71, 137.95  # [m], as in the run
+    result = {}
+    for on in (True, False):
+        f = SafetyFilter(dataclasses.replace(GS, stalled_box_hold=on), PROBLEM, MODEL, t.s_stop, 0.1)
+        world = make_world(paths, 1.0, [("E", e_path, s_e, 0.0), ("R", r_path, s_r, 0.0)])
+        world.role = ["passing", "ready"]
+        f.record_entries(world)
+        relations = _relations(world, movements, t)
+        (r_in, _r_out), = relations.pairs.zone_j
+        (e_in, _e_out), = relations.pairs.zone_i
+        assert r_in <= s_r < t.s_stop[t.index[r_path]] and s_e < e_in  # R in its zone, E short of its own
+        go = np.full(PROBLEM.steps, 1.5)  # [m/s^2]
+        plans = {"E": Plan.from_accelerations(s_e, 0.0, go, PROBLEM.dt), "R": Plan.from_accelerations(s_r, 0.0, go, PROBLEM.dt)}
+        d = Decisions(accel={"E": 1.5, "R": 1.5})
+        f.apply(world, relations, plans, {}, d)
+        result[on] = dict(d.accel)
+    assert result[True] == result[False]
+    assert result[True]["R"] == 1.5 and result[True]["E"] <= 0.0
