@@ -47,19 +47,21 @@ class PolicySettings:
     # [-] a pair of AVs whose crossing the safety filter had to guard plays its game from the next
     # control step on until the crossing is passed, whatever Gamma_cp says (an event of the ETM,
     # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin; the
-    # event ends once both are in the junction and one is below SafetySettings.clear_speed
-    # (off by default: with it demand_unbalanced_high at 600 s and a 20 ms budget near-locked, docs/design.md)
-    filter_event: bool = False
+    # event ends once both are in the junction and one is below SafetySettings.clear_speed.
+    # With game_gap_share 0.4 it hands Case 1 D's margin to the aggressive pair's game (D/A 0.5
+    # by min TTC); it costs the trigger its saving in Case 1 A (docs/design.md, issue 20 round 8);
+    # safe at 1800 veh/h with SafetySettings.stalled_box_hold (round 9)
+    filter_event: bool = True
     # [s] hysteresis of the ETM (Eq. 39): a pair that played its game keeps playing at the next
     # step while neither has passed its conflict point and their times to it (TCP, Eqs. 21-22)
     # differ by less than this, whatever Gamma_cp says; it ends once both are in the junction and
     # one is below SafetySettings.clear_speed (0: off, the ETM alone). Without it a cautious
     # yielder that slowed for its game leaves its own preview t_p^i (TCP > t_p^i: Gamma_cp = 0),
     # plans alone, speeds up, fires the ETM again and brakes, every other step (Case 1 B: V2 at
-    # about 3 m/s instead of falling to 2.4 m/s; min TTC to V1 3.15 s, with 6 s 4.02 s). Off by
-    # default: at 6 s it raised the 95th percentile of a step by ~10 % and the steps with deferred
-    # work to 1.4-1.5 % at 1800 veh/h (docs/design.md, issue 20 round 5, "A gridlock of three")
-    trigger_hold_gap: float = 0.0
+    # about 3 m/s instead of falling to 2.4 m/s; min TTC to V1 3.15 s, with 6 s 4.02 s). It plays
+    # about 30 % more games at 1800 veh/h, so the 95th percentile of a step rises by 8-20 %
+    # (docs/design.md, issue 20 rounds 5 and 8, "A gridlock of three")
+    trigger_hold_gap: float = 6.0
     anytime_reserve: float = 0.1  # [-] share of the step budget kept for the safety filter (at
     #                               least twice its measured mean time): games and solo solves that
     #                               would not finish before the rest of the budget are deferred
@@ -86,8 +88,8 @@ class SafetySettings:
     # game's; not in a fallback step, whose plans are the last ones shifted; 1: one gap for all):
     # below the full gap the filter leaves the pair's margin to the game's trade-off (Eq. 13) and
     # only catches what the game misses (issue 20; 0.4 with PolicySettings.filter_event hands
-    # Case 1's margins to the game, off by default, docs/design.md round 3)
-    game_gap_share: float = 1.0
+    # Case 1's margins to the game, docs/design.md rounds 3 and 8)
+    game_gap_share: float = 0.4
     safety_margin: float = 1.0  # [m] stop this far before a conflict point / behind a leader
     yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
     #                          junction: "tcp" = smaller time to the crossing at the current speed
@@ -102,11 +104,12 @@ class SafetySettings:
     human_margin: float = 2.0  # [m] an AV in the junction yielding to a human stops this far before
     #                            their crossing zone (SUMO's conflict areas are lane-wide, wider than
     #                            a body, and SUMO holds a human for a vehicle whose front is in one)
-    # [-] an AV not yet in the junction waits at its stop line while an AV inside stands (below
-    # clear_speed) short of leaving their crossing: a stalled box takes no new entrant into its
+    # [-] an AV not yet in the junction waits at its stop line while an AV inside stalls short of
+    # leaving their crossing, and that AV drives on: a stalled box takes no new entrant into its
     # crossings, so waits inside it cannot grow into a cycle (three vehicles, each standing in the
-    # next one's crossing, locked demand_balanced_high under round 8's settings, docs/design.md)
-    stalled_box_hold: bool = False
+    # next one's crossing, locked demand_balanced_high with the 0.4 gap share, the events and the
+    # hold; docs/design.md, issue 20 round 9)
+    stalled_box_hold: bool = True
     # [s] for stalled_box_hold a vehicle in the junction stalls if its speed is below clear_speed
     # now or will be within this time at its present deceleration (one crawling at 1.05 m/s and
     # braking at 1.7 m/s^2 let a third vehicle in: the same cycle, 10 s later)

@@ -35,13 +35,13 @@ class ProblemSettings:
     # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
     # max(min(w_accel_floor, w_accel), w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive
     # driver accelerates and brakes harder and a cautious one keeps its plan smoother (0: the same
-    # for all). 0.25, with PolicySettings.filter_event, trigger_hold_gap 6 s, game_gap_share 0.4
-    # and k_lat_partner 3.5, meets issue 20's goals; those are off by default (docs/design.md round 8)
-    w_accel_kappa: float = 0.0
+    # for all). 0.25: kappa 0.2 weighs 0.175, 0.8 0.025; with it the aggressive V1 of Case 1 C is
+    # faster than A's (9.15 against 9.40 s) when both play their games (docs/design.md round 8)
+    w_accel_kappa: float = 0.25
     # [s^4/m^2] least comfort weight of any player, where w_accel_kappa lowers it (it never
-    # raises a weight above w_accel): its best response stays strictly convex (at w_accel_kappa
-    # 0.25 a kappa-0.9 player would have none; behind a leader its cost was then flat to 1e-5
-    # over plans 0.02 m/s^2 apart)
+    # raises a weight above w_accel): its best response stays strictly convex (a kappa-0.9
+    # player would have none; behind a leader its cost was then flat to 1e-5 over plans
+    # 0.02 m/s^2 apart, so the answer depended on the solver's path)
     w_accel_floor: float = 0.01
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
 

@@ -57,10 +57,10 @@ class ModelSettings:
     # [-] how strongly a partner's aggressiveness scales the risk it poses: each J_lat term of a
     # player is weighted by exp(k_lat_partner (kappa_q - 0.5)), kappa_q the partner's (the
     # potential field of a more aggressive vehicle is stronger, a^q = a_0 exp(kappa^q), Eq. 7);
-    # 0: every partner alike (Eq. 19 as written), 1: Eq. 7's factor. 3 (was 2 until the Nash
-    # iteration restored collapsed trust regions; from 2.5 on one test pair's cold stop was not
-    # reproducible): Case 1 C/A >= 1.15 by min TTC, Case 2 B/A 1.8 by PET (docs/design.md round 7)
-    k_lat_partner: float = 3.0
+    # 0: every partner alike (Eq. 19 as written), 1: Eq. 7's factor. 3.5 (2 until the Nash
+    # iteration restored collapsed trust regions, 3 until round 8): Case 2 B/A 1.55 by min TTC
+    # (1.47 at 3) with the defaults of round 8 (docs/design.md rounds 7 and 8)
+    k_lat_partner: float = 3.5
     # [-] how strongly a player's own aggressiveness scales the risk it takes: each of its J_lat
     # terms (with an AV or a human crosser) is also weighted by exp(-k_lat_own (kappa_p - 0.5)),
     # kappa_p its own; 1 is Eq. 7's factor of its own field, so a term weighs the partner's field

@@ -313,8 +313,10 @@ def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
 def _weak_lateral_controller(paths, net_file):
     """A Nash controller whose games weigh J_lat lightly (k_lat = 1): their plans pass a crossing
     closer than safety_time_gap, which the filter must then enforce (at the default k_lat the
-    yielding player already brakes at a_min in its equilibrium plan)."""
-    return _nash_controller(paths, net_file, ModelSettings(k_lat=1.0))
+    yielding player already brakes at a_min in its equilibrium plan). The pair keeps the whole
+    gap (game_gap_share 1): at the default share its plans would be far enough apart."""
+    full_gap = GameControllerSettings(safety=SafetySettings(game_gap_share=1.0))
+    return _nash_controller(paths, net_file, ModelSettings(k_lat=1.0), full_gap)
 
 
 def _pair_a_game_lets_pass_first(paths, net_file):
@@ -326,7 +328,7 @@ def _pair_a_game_lets_pass_first(paths, net_file):
     zone_a = (float(t.zone_in[p, q]), float(t.zone_out[p, q]))
     zone_b = (float(t.zone_in[q, p]), float(t.zone_out[q, p]))
     world = _world(paths, 0.0, [("A", LEFT, zone_a[0] - 8.0, 4.0), ("B", STRAIGHT, zone_b[0] - 12.0, 7.0)])
-    world.kappa[:] = (0.6, 0.8)
+    world.kappa[:] = (0.8, 0.85)  # both bold: the game has them enter 0.01 s apart, A first
     return controller, world, zone_a, zone_b
 
 

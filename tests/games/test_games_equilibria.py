@@ -94,8 +94,10 @@ def _min_lateral_ttc(problem, result, ms):
 def test_higher_kappa_faster_and_closer(gs, ms):
     """Raising kappa of player 0 (all else equal): its mean speed rises, the min TTC_lat falls.
 
-    Between kappa 0.3 and 0.5 the margin stays on a plateau at 0.677 s (within 1e-5 s: it moves
-    by less than the solvers' tolerance), then falls by 0.05 and 0.17 s."""
+    From kappa 0.3 to 0.7 player 0 yields and the margin stays on a plateau at 0.677 s (within
+    1e-4 s: player 1's own trade-off sets it) while player 0 brakes less (mean speed 3.39, 4.18,
+    5.19 m/s); at 0.9 (comfort weight at its floor, ProblemSettings.w_accel_kappa) it takes the
+    crossing first, 8.61 m/s, and passes 0.21 s ahead."""
     speeds, ttcs = [], []
     for kappa in (0.3, 0.5, 0.7, 0.9):
         problem = Problem((Player(0.0, 5.5, kappa), Player(0.0, 5.0, 0.5)),
@@ -106,18 +108,21 @@ def test_higher_kappa_faster_and_closer(gs, ms):
         ttcs.append(_min_lateral_ttc(problem, result, ms))
     assert np.all(np.diff(speeds) > 0.1), speeds
     assert np.all(np.diff(ttcs) < 1e-4), ttcs
-    assert ttcs[1] - ttcs[2] > 0.03 and ttcs[2] - ttcs[3] > 0.1, ttcs
+    assert ttcs[2] - ttcs[3] > 0.4, ttcs
 
 
 def test_a_yielder_keeps_more_margin_from_an_aggressive_partner(gs, ms):
     """The risk a partner poses grows with its kappa (ModelSettings.k_lat_partner, Eq. 7's
     exp(kappa) field amplitude): player 1 (kappa 0.5, 14 m from the point) yields to player 0
     (12 m, faster). At k_lat_partner = 0 its margin is its own trade-off whoever comes (1.06 s
-    against kappa 0.2 and 0.8 alike); at the default 3 it slows more for an aggressive player 0
-    (mean speed 3.35 against 4.23 m/s) and keeps 1.11 s instead of 1.07 s. A partner at kappa 0.5
-    weighs 1, and so does a cautious one (the weight's floor): the same equilibria either way."""
-    assert ms.k_lat_partner == 3.0
+    against kappa 0.2 and 0.8 alike); at the default 3.5 it slows more for an aggressive player 0
+    (mean speed 3.22 against 4.23 m/s) and keeps 1.11 s instead of 1.07 s. A partner at kappa 0.5
+    weighs 1, and so does a cautious one (the weight's floor): the same equilibria either way.
+    Every player has the comfort weight of kappa 0.5 here (w_accel_kappa 0), so only the partner's
+    weight differs between the three partners."""
+    assert ms.k_lat_partner == 3.5
     flat = dataclasses.replace(ms, k_lat_partner=0.0)
+    gs = dataclasses.replace(gs, problem=dataclasses.replace(gs.problem, w_accel_kappa=0.0))
 
     def solve(kappa0, settings):
         problem = Problem((Player(0.0, 6.0, kappa0), Player(0.0, 5.0, 0.5)), (Interaction.cross(0, 1, 12.0, 14.0),))
