@@ -228,6 +228,7 @@ class SafetyFilter:
         # apply() had to guard (one held back): the controller may let them play (control/game.py)
         self.events: set[tuple[str, str]] = set()
         self._games: frozenset[tuple[str, str]] = frozenset()  # this apply()'s pairs in a game
+        self.stall_held: frozenset[str] = frozenset()  # vehicles the last apply() held for a stalled box
 
     def record_entries(self, world: World) -> None:
         """Put vehicles that entered the junction ("passing") into the entry queue."""
@@ -282,7 +283,9 @@ class SafetyFilter:
             for m in guarded:
                 self._hold_for_human(world, relations, pairs.at(m), plans, cap)
         if self.settings.stalled_box_hold:
+            before = dict(cap)
             clear |= self._hold_out_of_stalled_box(world, relations, guarded, cap)
+            self.stall_held = frozenset(v for v, a in cap.items() if a < before.get(v, math.inf))
         for _pass in range(2):
             for vid in clear:
                 if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:

@@ -469,6 +469,38 @@ def test_a_filter_event_ends_for_a_pair_that_crawls_inside_the_box(paths, net_fi
     assert games == ([[("A", "B")], [], []] if slow else [[("A", "B")]] * 3)
 
 
+@pytest.mark.parametrize("hold", [True, False])
+def test_a_pair_whose_entrant_waits_for_a_stalled_box_stops_its_forced_game(paths, net_file, hold):
+    """The filter's event makes A and B play (Gamma_cp never fires). Then B stands in the
+    junction short of their crossing and A nears its stop line: SafetySettings.stalled_box_hold
+    keeps A at its line, and from the next step the pair no longer plays: A must wait whatever
+    the game says (in a jam such games were a third of the QPs). Without the hold the event
+    keeps the game on."""
+    model = ModelSettings(gamma_sf=1e12)
+    settings = GameControllerSettings(policy=PolicySettings(filter_event=True),
+                                      safety=SafetySettings(stalled_box_hold=hold))
+    c = _nash_controller(paths, net_file, model, settings)
+    t = c.table
+    zone_a, zone_b = float(t.zone_in[t.index[LEFT], t.index[STRAIGHT]]), float(t.zone_in[t.index[STRAIGHT], t.index[LEFT]])
+    w = _world(paths, 0.0, [("A", LEFT, zone_a - 14.0, 7.0), ("B", STRAIGHT, zone_b - 9.0, 4.0)])
+    c.decide(w, time.perf_counter() + 10.0)  # the filter holds B back for A: the event
+    s_b = paths[STRAIGHT].s_stop + 0.5  # [m] B in the junction, short of its zone
+    s_a = paths[LEFT].s_stop - 4.0  # [m] A 4 m before its stop line at 3 m/s
+    assert s_b < zone_b
+    games, accel = [], []
+    for n in (1, 2, 3):
+        w = _world(paths, 0.1 * n, [("A", LEFT, s_a + 0.1 * n, 3.0), ("B", STRAIGHT, s_b, 0.0)])
+        w.role = ["ready", "passing"]
+        d = c.decide(w, time.perf_counter() + 10.0)
+        games.append(d.pairs)
+        accel.append(d.accel["A"])
+    if hold:
+        assert games == [[("A", "B")], [], []]  # the event's game at once, then none
+        assert max(accel) < -0.5  # A stops at its line (about -1.3 m/s^2 over 3.5 m)
+    else:
+        assert games == [[("A", "B")]] * 3
+
+
 def test_a_step_reports_the_qps_it_solved(controller, paths, monkeypatch):
     """Decisions.qp_solves (steps.csv's load-free measure of the work) is the number of QPs the
     step solved: one per SQP step of every best response of its games and solo vehicles."""
