@@ -463,11 +463,24 @@ class SafetyFilter:
         if world.is_human(lower_first[1].k) and self._would_stop_in(world, k, lower_first[0].enter):
             clear.add(ids[k])  # holding back would leave it standing in the human's way: drive out
             return
+        if self._stuck_inside(world, k, lat.zone_i if lower_first[0].row == lat.ri else lat.zone_j):
+            clear.add(ids[k])  # already in the crossing: braking would stand it in the other's path
+            return
         cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self._brake(world, k), -float(world.v[k]) / self.period))
 
     def _in_game(self, a: str, b: str) -> bool:
         """Whether vehicles ``a`` and ``b`` play their game this step."""
         return (min(a, b), max(a, b)) in self._games
+
+    def _stuck_inside(self, world: World, k: int, zone: tuple[float, float]) -> bool:
+        """Whether vehicle k's front is inside its crossing zone ``zone`` [m] (in, out) and, held
+        back as hard as it may from now (:meth:`_brake` [m/s^2]), would stop before its end: it
+        would stand in the path of the vehicle it yields to (demand_balanced_high, nash, seed 18,
+        237 s: held at -4 m/s^2 0.17 m short of the zone's end, it was hit by the other,
+        committed at 8 m/s)."""
+        s, v = float(world.s[k]), float(world.v[k])  # [m], [m/s]
+        stop = s + v * v / (2.0 * -self._brake(world, k))  # [m]
+        return zone[0] <= s and stop < zone[1]
 
     def _would_stop_in(self, world: World, k: int, enter: float) -> bool:
         """Whether vehicle k, braking as hard as it may (:meth:`_brake` [m/s^2]) after one control

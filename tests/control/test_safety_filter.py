@@ -469,3 +469,31 @@ def test_a_stalled_box_does_not_hold_an_entrant_already_inside_a_crossing_zone(p
         result[on] = dict(d.accel)
     assert result[True] == result[False]
     assert result[True]["R"] == 1.5 and result[True]["E"] <= 0.0
+
+
+def test_a_vehicle_already_in_the_crossing_drives_out_when_neither_can_yield(paths, movements, conflict_table):
+    """demand_balanced_high, nash, seed 18, 236.35 s, rebuilt: N (straight from the north, in the
+    junction second) has its front 0.77 m short of the end of its zone with E (straight from the
+    east, in first), at 2.29 m/s; E, 2 m before its zone at 8 m/s, can no longer stop short of
+    it. Neither can yield, and N ranks lower. Held back as hard as it may (-4 m/s^2), N would stop
+    inside the zone, 0.17 m short of its end, and E hit it; it drives on out instead (its plan,
+    +1.39 m/s^2, stands; at least clear_accel)."""
+    t = conflict_table
+    n_path, e_path = "north_outer_straight_outer", "east_outer_straight_outer"
+    p, q = t.index[n_path], t.index[e_path]
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    veh = [("N", n_path, 144.73, 2.29), ("E", e_path, float(t.zone_in[q, p]) - 2.0, 8.0)]
+    for when, roles in ((234.25, ["ready", "passing"]), (234.75, ["passing", "passing"])):
+        world = make_world(paths, when, veh)
+        world.role = roles
+        f.record_entries(world)
+    relations = _relations(world, movements, t)
+    (n_in, n_out), = relations.pairs.zone_i if relations.rows.vehicle[relations.pairs.ri[0]] == 0 else relations.pairs.zone_j
+    assert n_in <= 144.73 and 144.73 + 2.29 ** 2 / 8.0 < n_out  # braking at 4 m/s^2, N would stop inside
+    want = {"N": 1.39, "E": 0.0}  # [m/s^2]
+    plans = {v: Plan.from_accelerations(s, speed, np.full(PROBLEM.steps, want[v]), PROBLEM.dt) for v, _p, s, speed in veh}
+    slow = {"N": Plan.from_accelerations(144.73, 2.29, np.full(PROBLEM.steps, -0.5), PROBLEM.dt), "E": plans["E"]}
+    for own, expect in ((plans, 1.39), (slow, GS.clear_accel)):
+        d = Decisions(accel={v: float(own[v].accelerations[0]) for v in own})
+        f.apply(world, relations, own, {}, d)
+        assert d.accel["N"] == pytest.approx(expect) and d.accel["E"] == 0.0
