@@ -463,8 +463,10 @@ class SafetyFilter:
         if world.is_human(lower_first[1].k) and self._would_stop_in(world, k, lower_first[0].enter):
             clear.add(ids[k])  # holding back would leave it standing in the human's way: drive out
             return
-        if self._stuck_inside(world, k, lat.zone_i if lower_first[0].row == lat.ri else lat.zone_j):
-            clear.add(ids[k])  # already in the crossing: braking would stand it in the other's path
+        other = lower_first[1]
+        if float(world.s[other.k]) < other.enter and self._stuck_inside(
+                world, k, lat.zone_i if lower_first[0].row == lat.ri else lat.zone_j):
+            clear.add(ids[k])  # in the crossing, the other still coming: braking would stand it in its path
             return
         cap[ids[k]] = min(cap.get(ids[k], math.inf), max(self._brake(world, k), -float(world.v[k]) / self.period))
 
@@ -475,9 +477,10 @@ class SafetyFilter:
     def _stuck_inside(self, world: World, k: int, zone: tuple[float, float]) -> bool:
         """Whether vehicle k's front is inside its crossing zone ``zone`` [m] (in, out) and, held
         back as hard as it may from now (:meth:`_brake` [m/s^2]), would stop before its end: it
-        would stand in the path of the vehicle it yields to (demand_balanced_high, nash, seed 18,
-        237 s: held at -4 m/s^2 0.17 m short of the zone's end, it was hit by the other,
-        committed at 8 m/s)."""
+        would stand in the path of the vehicle it yields to, if that one is still coming
+        (demand_balanced_high, nash, seed 18, 237 s: held at -4 m/s^2 0.17 m short of the zone's
+        end, it was hit by the other, committed at 8 m/s). Two already in their zones keep the
+        rule: one waits, the other clears."""
         s, v = float(world.s[k]), float(world.v[k])  # [m], [m/s]
         stop = s + v * v / (2.0 * -self._brake(world, k))  # [m]
         return zone[0] <= s and stop < zone[1]
