@@ -283,9 +283,8 @@ class SafetyFilter:
             for m in guarded:
                 self._hold_for_human(world, relations, pairs.at(m), plans, cap)
         if self.settings.stalled_box_hold:
-            before = dict(cap)
-            clear |= self._hold_out_of_stalled_box(world, relations, guarded, cap)
-            self.stall_held = frozenset(v for v, a in cap.items() if a < before.get(v, math.inf))
+            self.stall_held, waited_for = self._hold_out_of_stalled_box(world, relations, guarded, cap)
+            clear |= waited_for
         for _pass in range(2):
             for vid in clear:
                 if vid in plans and float(plans[vid].accelerations[0]) < self.settings.clear_accel:
@@ -517,7 +516,7 @@ class SafetyFilter:
                 cap[world.ids[k]] = min(cap.get(world.ids[k], math.inf), a)
 
     def _hold_out_of_stalled_box(self, world: World, relations: Relations, guarded: np.ndarray,
-                                 cap: dict[str, float]) -> set[str]:
+                                 cap: dict[str, float]) -> tuple[frozenset[str], set[str]]:
         """Cap (into ``cap``) an AV not yet in the junction to wait at its stop line while an AV
         of one of its crossings (``guarded``, indices into ``relations.pairs``) is in the
         junction, stalls (below ``clear_speed``, now or within ``stalled_box_lookahead`` at its
@@ -528,11 +527,12 @@ class SafetyFilter:
         line needs ``ProblemSettings.comfort_brake`` (a stall far ahead may clear before the
         vehicle gets there); nothing for one that can no longer stop at its stop line, nor for one
         whose front is already inside a crossing zone (a right turn at its stop line may be: the
-        vehicle of that crossing waits for it, so holding it closed a cycle). Returns
-        the stalled vehicles someone now waits for: they drive on (the box rule), or their own
-        plans, waiting for the held entrant (a game's order), would hold it for good."""
+        vehicle of that crossing waits for it, so holding it closed a cycle). Returns the
+        vehicles whose cap it lowered, and the stalled vehicles someone now waits for: they drive
+        on (the box rule), or their own plans, waiting for the held entrant (a game's order),
+        would hold it for good."""
         if not len(guarded) or not self.entered:
-            return set()
+            return frozenset(), set()
         pairs, rows, ids, st = relations.pairs, relations.rows, world.ids, self.settings
         inside = np.array([vid in self.entered and not world.is_human(k) for k, vid in enumerate(ids)], bool)
         entrant = np.array([vid not in self.entered and not world.is_human(k) and world.role[k] == "ready"
@@ -553,13 +553,15 @@ class SafetyFilter:
             near = s_stop - world.s[ke] <= reach[ke]
             m = entrant[ke] & stalled[ko] & (world.s[ko] < zone_o[guarded][:, 1]) & (world.s[ke] < s_stop) & near
             held.update(zip(ke[m].tolist(), s_stop[m].tolist(), ko[m].tolist()))
-        waited_for = set()
+        lowered, waited_for = set(), set()
         for k, s_stop_k, o in sorted(held):
             a = self._stay_out(world, k, s_stop_k, s_stop_k, st.safety_margin)
             if a is not None:
-                cap[ids[k]] = min(cap.get(ids[k], math.inf), a)
+                if a < cap.get(ids[k], math.inf):
+                    lowered.add(ids[k])
+                    cap[ids[k]] = a
                 waited_for.add(ids[o])
-        return waited_for
+        return frozenset(lowered), waited_for
 
     def _human_stop(self, world: World, h: int, zone_h: tuple[float, float], s_wait: float,
                     plan_k: Plan | None, zone_k: tuple[float, float]) -> bool:
