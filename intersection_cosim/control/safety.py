@@ -534,7 +534,7 @@ class SafetyFilter:
         if not len(guarded) or not self.entered:
             return frozenset(), set()
         pairs, rows, ids, st = relations.pairs, relations.rows, world.ids, self.settings
-        inside = np.array([vid in self.entered and not world.is_human(k) for k, vid in enumerate(ids)], bool)
+        inside = self._avs_entered(world)
         entrant = np.array([vid not in self.entered and not world.is_human(k) and world.role[k] == "ready"
                             for k, vid in enumerate(ids)], bool)
         v = np.asarray(world.v)  # [m/s]
@@ -551,7 +551,7 @@ class SafetyFilter:
             ke, ko = rows.vehicle[r_e[guarded]], rows.vehicle[r_o[guarded]]
             s_stop = self.s_stop[rows.pidx[r_e[guarded]]]  # [m]
             near = s_stop - world.s[ke] <= reach[ke]
-            m = entrant[ke] & stalled[ko] & (world.s[ko] < zone_o[guarded][:, 1]) & (world.s[ke] < s_stop) & near
+            m = entrant[ke] & stalled[ko] & (world.s[ko] < zone_o[guarded][:, 1]) & near  # past the line: _stay_out declines
             held.update(zip(ke[m].tolist(), s_stop[m].tolist(), ko[m].tolist()))
         lowered, waited_for = set(), set()
         for k, s_stop_k, o in sorted(held):
@@ -649,6 +649,10 @@ class SafetyFilter:
             return (0, entered, world.ids[k])
         return (0.5, t_in, world.ids[k]) if world.is_human(k) else (1, t_in, world.ids[k])
 
+    def _avs_entered(self, world: World) -> np.ndarray:
+        """(len(world),) bool: the AVs in the entry queue (in the junction); humans never count."""
+        return np.array([vid in self.entered and not world.is_human(k) for k, vid in enumerate(world.ids)], bool)
+
     def _inherited_entries(self, world: World, relations: Relations, guarded: np.ndarray) -> dict[str, float]:
         """[s] the entry time each vehicle in the junction ranks by (:meth:`_rank`): its own, or
         the earlier one of a vehicle in the junction that waits (below ``clear_speed``) short of
@@ -661,7 +665,7 @@ class SafetyFilter:
         if not len(guarded) or not queue:
             return queue
         pairs, vehicle, ids = relations.pairs, relations.rows.vehicle, world.ids
-        inside = np.array([vid in queue and not world.is_human(k) for k, vid in enumerate(ids)], bool)
+        inside = self._avs_entered(world)
         ks = (vehicle[pairs.ri[guarded]], vehicle[pairs.rj[guarded]])
         zones = (pairs.zone_i[guarded], pairs.zone_j[guarded])
         links = []  # (the waiting vehicle, the one standing in its crossing)
