@@ -116,6 +116,20 @@ def _length(length: float | None, ms: ModelSettings) -> float:
     return ms.vehicle_length if length is None else float(length)
 
 
+def _terms(problem: Problem, p: int) -> tuple[list[tuple[int, float, float]], list[tuple[int, float]]]:
+    """Player p's lateral terms (other, s_cp own [m], s_cp other [m]) and the following terms
+    where p follows (leader, offset [m]), from the problem's interactions."""
+    lat, log = [], []
+    for it in problem.interactions:
+        if it.lateral and it.i == p:
+            lat.append((it.j, it.s_cp_i, it.s_cp_j))
+        elif it.lateral and it.j == p:
+            lat.append((it.i, it.s_cp_j, it.s_cp_i))
+        elif it.kind == "following" and it.i == p:
+            log.append((it.j, it.offset))
+    return lat, log
+
+
 class PlayerObjective:
     """Player ``p``'s cost as a function of its own accelerations, the others' plans held fixed.
 
@@ -145,18 +159,9 @@ class PlayerObjective:
         self.jerk_w = gs.problem.w_jerk / (dt * dt)  # [s^4/m^2] weight of (a_k - a_{k-1})^2
         self.w_acc = comfort_weight(gs.problem, self.kappa)  # [s^4/m^2] weight of a^2
         self._floor, self._clr, self._eps = ms.tcp_speed_floor, ms.conflict_clearance, ms.eps
-        # lateral terms: (other, s_cp own, s_cp other); following terms where p follows: (leader, offset)
-        self.lat_terms: list[tuple[int, float, float]] = []
-        self.log_terms: list[tuple[int, float]] = []
+        self.lat_terms, self.log_terms = _terms(problem, p)
         # [m] each player's body (J_log's gap to a leading player is bumper to bumper, Eq. 16)
         self._lengths = [_length(q.length, ms) for q in problem.players]
-        for it in problem.interactions:
-            if it.lateral and it.i == p:
-                self.lat_terms.append((it.j, it.s_cp_i, it.s_cp_j))
-            elif it.lateral and it.j == p:
-                self.lat_terms.append((it.i, it.s_cp_j, it.s_cp_i))
-            elif it.kind == "following" and it.i == p:
-                self.log_terms.append((it.j, it.offset))
         self._exo = None  # a non-player leader (Player.leader): (s - length, v) over the horizon
         if pl.leader is not None:
             s_l, v_l = (np.asarray(x, dtype=float) for x in pl.leader)
@@ -180,6 +185,9 @@ class PlayerObjective:
         # per lateral term (lat_terms, then the fixed crossers): (s_cp own, TCP of the other (N,),
         # other not passed (N,))
         self._lat: list = list(self._lat_fixed)
+        # the players whose plans set_others reads, and the Plans it installed last (None: none yet)
+        self._partners = tuple(q for q, _, _ in self.lat_terms) + tuple(q for q, _ in self.log_terms if q != EXOGENOUS)
+        self._installed: tuple | None = None
         self._log: list = []  # per following term: (leader s in own frame minus length (N,), leader v (N,))
         if self._exo is not None and self.log_terms and not self.lat_terms and len(self.log_terms) == 1:
             self._log = [self._exo]  # nothing else to wait for: usable before set_others
@@ -191,7 +199,15 @@ class PlayerObjective:
 
     # ------------------------------------------------------------------ data of the others
     def set_others(self, plans) -> None:
-        """``plans[q]`` is player q's Plan (entries of players without a term are ignored)."""
+        """``plans[q]`` is player q's Plan (entries of players without a term are ignored).
+
+        Plans are immutable: when every partner's Plan is the object installed by the last call,
+        the data are those already installed and are kept (a Stackelberg iteration installs the
+        same plans twice in a row in half its calls)."""
+        partners = tuple(plans[q] for q in self._partners)
+        if self._installed is not None and all(x is y for x, y in zip(partners, self._installed)):
+            return
+        self._installed = partners
         self._lat = [self._lateral_data(scp, scp_q, plans[q].positions[1:], plans[q].speeds[1:], w)
                      for (q, scp, scp_q), w in zip(self.lat_terms, self._lat_weight)] + self._lat_fixed
         self._log = []

@@ -88,6 +88,24 @@ def test_true_cost_is_the_paper_running_cost(gs, ms):
         assert own.cost(a) == pytest.approx(gs.problem.dt * (np.sum(j_own) + comfort_own), rel=1e-12)
 
 
+def test_set_others_keeps_the_installed_plan_and_takes_a_new_one(gs, ms):
+    """set_others skips the work for the partner Plan it installed last, never for a new Plan:
+    the cost always answers the partner's latest plan (a stale cache would keep the old one)."""
+    _, obj, other = _cross_objective(gs, ms)
+    a = np.full(gs.problem.steps, 0.5)
+    slow = Plan.from_accelerations(2.0, 5.0, np.full(gs.problem.steps, -1.5), gs.problem.dt)
+    c_same = obj.cost(a)
+    obj.set_others([None, other])  # the same Plan object: kept
+    assert obj.cost(a) == c_same
+    obj.set_others([None, slow])  # a new Plan: its trajectory enters J_lat
+    _, fresh, _ = _cross_objective(gs, ms, other_a=np.full(gs.problem.steps, -1.5))
+    assert obj.cost(a) == fresh.cost(a)
+    assert abs(obj.cost(a) - c_same) > 0.01  # the partner braking at 1.5 m/s^2 moves the cost
+    # an equal but new Plan object is installed again, with the same result
+    obj.set_others([None, Plan.from_accelerations(2.0, 5.0, np.zeros(gs.problem.steps), gs.problem.dt)])
+    assert obj.cost(a) == c_same
+
+
 @pytest.mark.parametrize("kind", ["cross", "cross with an aggressive partner", "cross by a cautious player",
                                   "following"])
 def test_gradient_matches_finite_differences(gs, ms, kind):
