@@ -42,6 +42,7 @@ the AV claim it against the human (control/safety.py).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -61,6 +62,7 @@ from intersection_cosim.control.pedestrians import pedestrian_holds
 from intersection_cosim.control.speed_limits import lane_speed_holds
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
+from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.qp import reset_workspaces, solve_count
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
@@ -143,7 +145,7 @@ class GameController:
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt, game.a_max, context.model.v_max)
         lane_costs = LaneChangeCosts(context.movements, context.model)
         self.solver = GameSolver(EQUILIBRIA[self.equilibrium], self.equilibrium, self.settings.games, self.model,
-                                 lane_costs, context.movements)
+                                 lane_costs, context.movements, _capped(self.settings))
         self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.movements)
         self.reuse = GameReuse(self.settings.policy, self.memory, context.model.v_max)
         self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
@@ -431,3 +433,16 @@ def _playing(world: World, relations: Relations) -> frozenset[tuple[str, str]]:
     """The vehicle pairs that play their game this step, as sorted vehicle-id pairs."""
     ids = world.ids
     return frozenset((min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())
+
+
+def _capped(settings: GameControllerSettings) -> GameSettings | None:
+    """The game settings of a game in progress (GameSolver.solve): the equilibrium iterations
+    capped at ``policy.game_max_iter`` and a Stackelberg follower not polished at the cap (its
+    answer goes on at the next step); None for 0, not capped."""
+    cap = settings.policy.game_max_iter
+    if cap <= 0:
+        return None
+    sv = settings.games.solver
+    return dataclasses.replace(settings.games, solver=dataclasses.replace(
+        sv, nash_max_iter=min(cap, sv.nash_max_iter), stackelberg_max_iter=min(cap, sv.stackelberg_max_iter),
+        polish_follower=False))

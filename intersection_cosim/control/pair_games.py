@@ -9,6 +9,12 @@ When a player may still choose its exit lane, the pair's continuous game is solv
 combination of exit lanes and a pure equilibrium of the resulting matrix game is taken
 (:func:`~intersection_cosim.games.lane_choice.lane_choice_game`); leaving the preferred exit
 lane costs J_lk (Eq. 23).
+
+A game in progress, warm-started from its own equilibrium of the last control step, runs at most
+``PolicySettings.game_max_iter`` equilibrium iterations a step: an unconverged one applies its
+last iterate and goes on from it at the next step (a real-time iteration, as the solo vehicles'
+SQP). The equilibrium moves by a little from one period to the next, so one iteration a step
+follows it closely; a pair's first solve, and one after a pause, runs to convergence.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Callable, Mapping
 
 import numpy as np
@@ -54,6 +61,17 @@ class GameSolver:
     model: ModelSettings
     lane_costs: LaneChangeCosts
     movements: Movements
+    warm_settings: GameSettings | None = None  # of a game in progress (PolicySettings.game_max_iter)
+
+    def solve(self, problem: Problem, gs: GameSettings, model: ModelSettings, warm_start=None, tracked=(),
+              **kwargs) -> GameResult:
+        """``equilibrium`` of ``problem``. A solve whose warm start is one of ``tracked`` (the
+        pair's own equilibrium of the last control step) runs under ``warm_settings`` when they
+        are set: its iterations capped per control step, a real-time iteration that goes on from
+        its last iterate at the next step (PolicySettings.game_max_iter)."""
+        if self.warm_settings is not None and warm_start is not None and any(warm_start is t for t in tracked):
+            gs = self.warm_settings
+        return self.equilibrium(problem, gs, model, warm_start=warm_start, **kwargs)
 
 
 def pair_games(relations: Relations, options: Mapping[int, tuple[str, ...]]) -> dict[tuple[int, int], PairGame]:
@@ -124,14 +142,17 @@ def play(world: World, game: PairGame, problems: dict, warm: dict, options: Mapp
     equilibrium and the exit lanes."""
     ka, kb = game.a, game.b
     gs, model = solver.settings, solver.model
+    # warm starts that are the pair's own plans of the last control step: a game in progress
+    tracked = tuple(warm[c] for c in warm
+                    if memory.periods_since(GameKey(world.ids[ka], world.ids[kb], *c), world.time) == 1)
     if len(problems) == 1:
         (combo, problem), = problems.items()
-        result = solver.equilibrium(problem, gs, model, warm_start=warm.get(combo), deadline=deadline)
+        result = solver.solve(problem, gs, model, warm_start=warm.get(combo), tracked=tracked, deadline=deadline)
         choice, results = combo, {combo: result}
     else:
         costs = [solver.lane_costs.costs(world.path_ids[k], options[k]) for k in (ka, kb)]
-        lc = lane_choice_game(problems, costs, solver=solver.equilibrium, settings=gs, model_settings=model,
-                              warm_starts=warm, deadline=deadline)
+        lc = lane_choice_game(problems, costs, solver=partial(solver.solve, tracked=tracked), settings=gs,
+                              model_settings=model, warm_starts=warm, deadline=deadline)
         result, choice, results = lc.result, lc.choice, lc.results
     for combo, res in results.items():  # every combination warm-starts its own next solve
         if res.status != "solver failure":

@@ -190,5 +190,10 @@ class PlanMemory:
             return None
         return tuple(self.shifted(p, periods) for p in plans)
 
+    def periods_since(self, key: WarmKey, now: float) -> int | None:
+        """Control periods since the plans under ``key`` were stored at ``now`` [s] (None: none)."""
+        entry = self._warm.get(key)
+        return None if entry is None else int(round((now - entry[0]) / self.period))
+
     def keys(self) -> Iterable[WarmKey]:
         return tuple(self._warm)

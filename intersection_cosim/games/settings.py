@@ -83,6 +83,11 @@ class SolverSettings:
     stackelberg_gain_rtol: float = 1e-3  # [-] ... or its model gain is below this fraction
     stackelberg_attempts: int = 1  # [-] leader QPs per iteration: after a rejected step (all its
     #                                halves tried) the trust region shrinks and the QP is re-solved
+    # Stackelberg: a follower not settled when the leader's iteration stops is polished to a full
+    # best response (up to br_max_sqp SQP steps); False keeps its last answer, as at a deadline,
+    # and the solve counts as not converged: the real-time iteration of a game in progress
+    # (PolicySettings.game_max_iter) goes on from it at the next step
+    polish_follower: bool = True
     active_set_max_updates: int = 4  # [-] follower active-set updates per leader step
     active_tol: float = 1e-3  # [m/s^2] a row within this of its bound starts in the active set
 

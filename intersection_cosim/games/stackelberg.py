@@ -31,7 +31,10 @@ than ``stackelberg_tol``, or gained less than ``nash_cost_rtol`` while moving le
 ``nash_cost_guard`` with the follower settled. The follower is finally polished to a full best
 response (``br_max_sqp`` SQP iterations) unless its last answer had already settled or the
 deadline stopped the iteration: past the deadline, as in :func:`nash_equilibrium`, no further QP
-is solved (a warm start is returned as it is, the follower's last answer as it stands).
+is solved (a warm start is returned as it is, the follower's last answer as it stands). With
+``polish_follower`` off an unsettled follower keeps its last answer too, and the solve counts as
+not converged ("iteration cap"): a real-time iteration's step, which the next control step
+continues.
 
 A cold solve starts at the Nash equilibrium (where the follower is at its best response); the
 leader only ever takes cost-reducing steps, and if the follower's final polish still leaves the
@@ -306,7 +309,10 @@ def _leader_iteration(game: EquilibriumSolve, plans: list[Plan], L: int, F: int,
         if res < sv.stackelberg_tol or (res < sv.nash_cost_guard and gain < sv.nash_cost_rtol and follower_settled):
             status = "converged"
             break
-    plans, known = _polish(it, plans, cL, f_cost, follower_settled or status == "deadline")
+    settled = follower_settled or status == "deadline"
+    if not (settled or sv.polish_follower):  # a real-time step: the follower goes on next time
+        settled, status = True, "iteration cap"
+    plans, known = _polish(it, plans, cL, f_cost, settled)
     return plans, residuals, status, known
 
 

@@ -33,3 +33,20 @@ def make_world(paths, t, vehicles, kappa=0.5):
                  a=np.zeros(n), x=xy[:, 0], y=xy[:, 1], heading=np.zeros(n), kappa=np.full(n, kappa),
                  role=["ready"] * n, lanes=[paths[p].lanes[0] for p in pids],
                  exit_choices={i: (paths[p].exit_lane,) for i, p in zip(ids, pids)})
+
+
+def record_solves(c, entry) -> list:
+    """Wrap controller ``c``'s equilibrium solver: after every solve ``entry(result)`` is appended
+    to the returned list."""
+    import dataclasses
+
+    solves = []
+    real = c.solver.equilibrium
+
+    def recording(problem, *a, **k):
+        result = real(problem, *a, **k)
+        solves.append(entry(result))
+        return result
+
+    c.solver = dataclasses.replace(c.solver, equilibrium=recording)
+    return solves

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import time
 
 import numpy as np
@@ -13,7 +12,7 @@ from intersection_cosim.control.game import GameController
 from intersection_cosim.control.settings import GameControllerSettings, PolicySettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.movements import paper_movements
-from tests.control.conftest import make_world
+from tests.control.conftest import make_world, record_solves
 
 LEFT = "west_inner_left_inner"  # eastbound, turning left to the north
 STRAIGHT = "north_middle_straight_middle"  # southbound, straight on: the left turn crosses it
@@ -27,16 +26,7 @@ def _controller(net_file, game_resolve_steps: int, game_reuse_gap: float = 1.0) 
                                                             game_reuse_gap=game_reuse_gap))
     c.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(), control_period=0.1,
                            settings=settings, etm=True))
-    solves = []
-    real = c.solver.equilibrium
-
-    def recording(problem, *a, **k):
-        result = real(problem, *a, **k)
-        solves.append(result.iterations)
-        return result
-
-    c.solver = dataclasses.replace(c.solver, equilibrium=recording)
-    return c, solves
+    return c, record_solves(c, lambda result: result.iterations)
 
 
 def _start(c: GameController, paths):
