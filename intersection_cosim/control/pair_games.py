@@ -8,7 +8,8 @@ lately, from the plans its two players drive (what a cold start would first comp
 When a player may still choose its exit lane, the pair's continuous game is solved for every
 combination of exit lanes and a pure equilibrium of the resulting matrix game is taken
 (:func:`~intersection_cosim.games.lane_choice.lane_choice_game`); leaving the preferred exit
-lane costs J_lk (Eq. 23).
+lane costs J_lk (Eq. 23). The combination of the exit lanes the two hold is solved first, and
+the other combinations start from its equilibrium (their own stored plans are a decision old).
 
 A game in progress, warm-started from its own equilibrium of the last control step, runs at most
 ``PolicySettings.game_max_iter`` equilibrium iterations a step: an unconverged one applies its
@@ -151,8 +152,10 @@ def play(world: World, game: PairGame, problems: dict, warm: dict, options: Mapp
         choice, results = combo, {combo: result}
     else:
         costs = [solver.lane_costs.costs(world.path_ids[k], options[k]) for k in (ka, kb)]
+        driven = (memory.options.get(world.ids[ka]), memory.options.get(world.ids[kb]))  # the exit lanes held
         lc = lane_choice_game(problems, costs, solver=partial(solver.solve, tracked=tracked), settings=gs,
-                              model_settings=model, warm_starts=warm, deadline=deadline)
+                              model_settings=model, warm_starts=warm, lead=driven if driven in problems else None,
+                              deadline=deadline)
         result, choice, results = lc.result, lc.choice, lc.results
     for combo, res in results.items():  # every combination warm-starts its own next solve
         if res.status != "solver failure":

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from intersection_cosim.games import (GameResult, Interaction, Player, Problem, lane_change_cost,
-                                      lane_choice_game, stackelberg_equilibrium)
+                                      lane_choice_game, nash_equilibrium, stackelberg_equilibrium)
 from intersection_cosim.games.lane_choice import RULE_NO_PURE, RULE_PURE, RULE_PURE_SEVERAL
 
 INNER, MIDDLE = ("inner", "straight", "turn"), ("middle", "straight", "turn")
@@ -106,3 +106,24 @@ def test_failed_combination_is_never_chosen():
 
     res = lane_choice_game(problems, None, solver=failing)
     assert res.choice == ("a",)
+
+
+def test_the_driven_combination_is_solved_first_and_starts_the_others(gs, ms):
+    """With ``lead`` the combination the players drive is solved first, from its own warm start,
+    and every other one starts from its fresh equilibrium; the choice is the one without it."""
+    problems, lane_costs = case2_v3(0.85)
+    plain = lane_choice_game(problems, lane_costs, settings=gs, model_settings=ms)
+    calls = []
+
+    def solver(problem, g, m, warm_start=None, **kw):
+        result = nash_equilibrium(problem, g, m, warm_start=warm_start, **kw)
+        calls.append((problem.interactions, warm_start, result))
+        return result
+
+    stale = {c: r.plans for c, r in plain.results.items()}  # stand-ins for a decision-old start
+    led = lane_choice_game(problems, lane_costs, solver=solver, settings=gs, model_settings=ms,
+                           warm_starts=stale, lead=INNER)
+    assert [c[0] for c in calls] == [problems[INNER].interactions, problems[MIDDLE].interactions]
+    assert calls[0][1] is stale[INNER] and calls[1][1] is calls[0][2].plans
+    assert list(led.results) == [INNER, MIDDLE]  # the given order, which breaks ties
+    assert led.choice == plain.choice == MIDDLE
