@@ -154,8 +154,7 @@ def play(world: World, game: PairGame, problems: dict, warm: dict, options: Mapp
         costs = [solver.lane_costs.costs(world.path_ids[k], options[k]) for k in (ka, kb)]
         driven = (memory.options.get(world.ids[ka]), memory.options.get(world.ids[kb]))  # the exit lanes held
         lc = lane_choice_game(problems, costs, solver=partial(solver.solve, tracked=tracked), settings=gs,
-                              model_settings=model, warm_starts=warm, lead=driven if driven in problems else None,
-                              deadline=deadline)
+                              model_settings=model, warm_starts=warm, lead=driven, deadline=deadline)
         result, choice, results = lc.result, lc.choice, lc.results
     for combo, res in results.items():  # every combination warm-starts its own next solve
         if res.status != "solver failure":

@@ -181,14 +181,13 @@ class PlanMemory:
         """The plans stored under ``key``, shifted by the control periods since they were solved
         (a pair's game may pause while its trigger is off), or None when there are none or they
         are older than half the horizon (little of them would be left to reuse)."""
-        entry = self._warm.get(key)
-        if entry is None:
+        periods = self.periods_since(key, now)
+        if periods is None:
             return None
-        solved_at, plans = entry
-        periods = max(1, int(round((now - solved_at) / self.period)))
+        periods = max(1, periods)
         if periods * self.shift > self.steps // 2:
             return None
-        return tuple(self.shifted(p, periods) for p in plans)
+        return tuple(self.shifted(p, periods) for p in self._warm[key][1])
 
     def periods_since(self, key: WarmKey, now: float) -> int | None:
         """Control periods since the plans under ``key`` were stored at ``now`` [s] (None: none)."""

@@ -35,7 +35,7 @@ class PolicySettings:
     # 0: only the solver's caps): an unconverged game applies its last iterate and goes on from
     # it at the next step, the real-time iteration of solo_max_iter. A pair's first solve, and
     # one after a pause, runs in full. 1 cut the 95th percentile of a step at 1800 veh/h by
-    # 7-13 % with travel times and collisions unchanged (docs/design.md, issue 18, tenth part)
+    # 11-13 % with travel times and collisions unchanged (docs/design.md, issue 18, tenth part)
     game_max_iter: int = 1
     solo_leader_tol: float = 0.1  # [m] and [m/s]: a solo vehicle solves again when its leader's
     #                               predicted positions (speeds) moved more than this since its solve
