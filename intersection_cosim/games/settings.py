@@ -111,6 +111,9 @@ class SolverSettings:
     osqp_check_termination: int = 5  # [-] ADMM iterations between termination checks
     hessian_reuse_tol: float = 0.05  # [-] keep OSQP's installed P (no refactorisation) if the new
     #                                  Hessian differs from it by less than this (relative)
+    # [-] passes of the exact active-set solve over the input-box rows tried before OSQP when
+    # the QP's unconstrained minimiser breaks a row (games/qp.py, "Box solutions"; 0: OSQP)
+    qp_box_iter: int = 6
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "nash_tol", "nash_max_iter", "sqp_steps_per_iteration", "stackelberg_tol",
@@ -118,7 +121,7 @@ class SolverSettings:
                             "trust_region", "trust_region_min", "trust_region_max", "gap_floor", "osqp_eps_abs",
                             "osqp_max_iter", "osqp_check_termination")
         problems += non_negative(self, "active_set_max_updates", "active_tol", "line_search_steps", "armijo",
-                                 "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol", "hessian_refresh",
+                                 "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol", "hessian_refresh", "qp_box_iter",
                                  "nash_cost_rtol", "nash_cost_guard", "stackelberg_gain_rtol")
         if self.scheme not in SCHEMES:
             problems.append(("scheme", f"must be one of {', '.join(SCHEMES)}"))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -201,35 +202,78 @@ def test_qp_workspace_is_set_up_once_and_reused(gs):
     assert np.cumsum(sol2.x)[-1] * gs.problem.dt <= 5.0 + 1e-3
 
 
-def test_qp_with_no_active_bound_is_solved_exactly_and_one_with_an_active_bound_by_osqp(gs):
-    """An interior QP's answer is the exact minimiser a - H^-1 g (no ADMM iteration, zero
-    multipliers); when that minimiser breaks a bound, OSQP solves it with the bound active."""
+def _coupled_qp(gs, seed: int):
+    """A coupled positive definite H, an iterate a [m/s^2] and g such that the unconstrained
+    minimiser is x_star = a + U(-0.3, 0.3); box rows a_min, a_max, speed rows for v0 = 8 m/s and a
+    cap of 20 m/s (never reached)."""
     n, dt = gs.problem.steps, gs.problem.dt
     ws = QPWorkspace(n, gs)
-    rng = np.random.default_rng(4)
+    rng = np.random.default_rng(seed)
     G = rng.normal(size=(n, n))
-    H = G @ G.T / n + 0.5 * np.eye(n)  # positive definite, coupled
-    a = np.full(n, 0.2)  # [m/s^2] the SQP iterate
-    x_star = a + rng.uniform(-0.3, 0.3, n)  # [m/s^2] the minimiser we build g for
+    H = G @ G.T / n + 0.5 * np.eye(n)
+    a = np.full(n, 0.2)
+    x_star = a + rng.uniform(-0.3, 0.3, n)
     g = H @ (a - x_star)
     l, u = np.empty(2 * n), np.empty(2 * n)
-    l[n:], u[n:] = ws.speed_rows(8.0, 20.0, dt)  # v0 = 8 m/s, cap 20 m/s: never reached here
+    l[n:], u[n:] = ws.speed_rows(8.0, 20.0, dt)
     l[:n], u[:n] = gs.problem.a_min, gs.problem.a_max
+    return ws, H, g, a, x_star, l, u
+
+
+def test_qp_with_no_active_bound_is_solved_exactly(gs):
+    """An interior QP's answer is the exact minimiser a - H^-1 g (no ADMM iteration, zero
+    multipliers)."""
+    ws, H, g, a, x_star, l, u = _coupled_qp(gs, 4)
     sol = ws.solve(H, g, a, l, u)
     assert sol.ok and sol.iterations == 0
     assert np.abs(sol.x - x_star).max() < 1e-12
     assert np.all(sol.y == 0.0)
-    # a trust region of 0.1 m/s^2 around a cuts the minimiser off: OSQP, with the bound active
+
+
+@pytest.mark.parametrize("seed", [4, 5, 6])
+def test_qp_with_active_box_rows_is_solved_exactly_and_agrees_with_osqp(gs, seed):
+    """A trust region of 0.1 m/s^2 around a cuts the minimiser off: the box active set answers
+    without OSQP, meets the KKT conditions to rounding and agrees with OSQP's answer (qp_box_iter
+    0) within OSQP's tolerance, at a model value no higher than OSQP's put back in the box."""
+    ws, H, g, a, x_star, l, u = _coupled_qp(gs, seed)
+    n = len(a)
     l[:n], u[:n] = a - 0.1, a + 0.1
     boxed = ws.solve(H, g, a, l, u)
-    assert boxed.ok and boxed.iterations > 0
-    assert np.all(boxed.x >= a - 0.1 - 1e-4) and np.all(boxed.x <= a + 0.1 + 1e-4)
-    assert np.abs(boxed.y[:n]).max() > 1e-3  # some box row carries a multiplier
+    assert boxed.ok and boxed.iterations == 0
+    assert np.all(boxed.x >= a - 0.1 - 1e-12) and np.all(boxed.x <= a + 0.1 + 1e-12)
+    y = boxed.y
+    assert np.all(y[n:] == 0.0) and np.abs(y[:n]).max() > 1e-3  # only box rows carry multipliers
+    grad = H @ (boxed.x - a) + g
+    assert np.abs(grad + y[:n]).max() < 1e-10  # stationarity: H x + c + y = 0
+    at_hi, at_lo = np.isclose(boxed.x, a + 0.1, atol=1e-12), np.isclose(boxed.x, a - 0.1, atol=1e-12)
+    assert np.all(y[:n][at_hi] >= 0.0) and np.all(y[:n][at_lo] <= 0.0)  # signs of the active bounds
+    assert np.all(y[:n][~(at_hi | at_lo)] == 0.0)
+    gs_osqp = dataclasses.replace(gs, solver=dataclasses.replace(gs.solver, qp_box_iter=0))
+    ref = QPWorkspace(n, gs_osqp).solve(H, g, a, l, u)
+    assert ref.ok and ref.iterations > 0
+    assert np.abs(boxed.x - ref.x).max() < 5e-3
 
     def model(x):
         return 0.5 * x @ H @ x + (g - H @ a) @ x
-    clipped = np.clip(x_star, a - 0.1, a + 0.1)
-    assert model(boxed.x) <= model(clipped) + 1e-6  # no worse than the clipped minimiser
+    # OSQP's answer breaks the box by up to its tolerance; put back in it, it is no better
+    assert model(boxed.x) <= model(np.clip(ref.x, a - 0.1, a + 0.1)) + 1e-12
+    assert model(boxed.x) < model(np.clip(x_star, a - 0.1, a + 0.1)) - 1e-6  # not just clipping
+
+
+def test_qp_with_an_active_speed_row_goes_to_osqp(gs):
+    """A vehicle at 1 m/s whose minimiser brakes at 3 m/s^2 for the whole horizon would go
+    backwards: the speed rows v >= 0 bind, which the box active set does not cover, so OSQP
+    solves it (ADMM iterations > 0) and the plan stops at v = 0."""
+    n, dt = gs.problem.steps, gs.problem.dt
+    ws = QPWorkspace(n, gs)
+    l, u = np.empty(2 * n), np.empty(2 * n)
+    l[n:], u[n:] = ws.speed_rows(1.0, 20.0, dt)
+    l[:n], u[:n] = gs.problem.a_min, gs.problem.a_max
+    sol = ws.solve(np.eye(n), np.full(n, 3.0), np.zeros(n), l, u)  # minimiser a = -3 m/s^2
+    assert sol.ok and sol.iterations > 0
+    v = 1.0 + dt * np.cumsum(sol.x)
+    assert v.min() >= -1e-3 and v[-1] < 1e-2
+    assert sol.y[n:].min() < -1e-3  # a lower speed row carries a multiplier
 
 
 def test_qp_reports_infeasible_and_bad_data(gs):
