@@ -121,8 +121,8 @@ class SolverSettings:
                             "trust_region", "trust_region_min", "trust_region_max", "gap_floor", "osqp_eps_abs",
                             "osqp_max_iter", "osqp_check_termination")
         problems += non_negative(self, "active_set_max_updates", "active_tol", "line_search_steps", "armijo",
-                                 "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol", "hessian_refresh", "qp_box_iter",
-                                 "nash_cost_rtol", "nash_cost_guard", "stackelberg_gain_rtol")
+                                 "br_rel_decrease_tol", "osqp_eps_rel", "hessian_reuse_tol", "hessian_refresh",
+                                 "qp_box_iter", "nash_cost_rtol", "nash_cost_guard", "stackelberg_gain_rtol")
         if self.scheme not in SCHEMES:
             problems.append(("scheme", f"must be one of {', '.join(SCHEMES)}"))
         if not self.trust_region_min <= self.trust_region <= self.trust_region_max:

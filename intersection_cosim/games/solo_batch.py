@@ -7,8 +7,8 @@ solves one such problem at a time; most of its time is Python around small numpy
 problems of a control step are stacked: positions, speeds, true costs, gradients, Gauss-Newton
 Hessians, bounds, the line search and the trust-region logic are computed for all vehicles at
 once as (m, N) and (m, N, N) arrays; only the QPs remain one call per vehicle (the workspace
-slot ``("nash", 0)`` that ``solo_response`` uses: an exact Cholesky solve when no bound is
-active, else OSQP). The SQP is the one of
+slot ``("nash", 0)`` that ``solo_response`` uses: exact when no bound or only input bounds are
+active, else OSQP; :mod:`intersection_cosim.games.qp`). The SQP is the one of
 :mod:`intersection_cosim.games.sqp` (model QP in a trust region, Armijo line search on the true
 cost, radius update) and the iteration the one of ``solo_response`` (``nash_max_iter`` SQP
 steps, residual and cost-gain tests of :mod:`intersection_cosim.games.nash`), with two
