@@ -79,6 +79,10 @@ from intersection_cosim.models.settings import ModelSettings
 
 WAIT_REACH = 1.0  # [m] how far before its waiting position a standing human counts as waiting there
 CREEP_CLEARANCE = 0.1  # [m] a vehicle leaving a crossing zone to stand between crossings stops this far past it
+# [s] a vehicle that inherits another's entry time (priority inheritance) ranks this much ahead of
+# it: on a tie the ids decided, and a blocker could stay behind a third vehicle that the one it
+# blocks ranks ahead of (docs/design.md, issue 18, eleventh part: a cycle through a merge)
+INHERIT_AHEAD = 1e-6
 VECTOR_MIN_PAIRS = 16  # [-] guarded pairs from which the filter's first look is vectorised (below it
 #                        numpy's fixed cost exceeds the per-pair check's)
 
@@ -658,7 +662,8 @@ class SafetyFilter:
         the earlier one of a vehicle in the junction that waits (below ``clear_speed``) short of
         their crossing while this one stands inside its zone of it, passed on along chains. So
         a vehicle that blocks one ranked ahead of others goes before those others and clears its
-        way (priority inheritance): the "cannot stay out" rule had let a vehicle standing in the
+        way (priority inheritance; it ranks ``INHERIT_AHEAD`` ahead of the one it blocks, so a
+        tie of ids cannot put it back behind them): the "cannot stay out" rule had let a vehicle standing in the
         first one's crossing wait for a third, and four vehicles held each other for good
         (docs/design.md, "The cycle of four, replayed"). Human drivers neither pass nor inherit."""
         queue = dict(self.entered)
@@ -677,8 +682,8 @@ class SafetyFilter:
         for _ in range(len(links)):  # a chain is at most as long as the links
             changed = False
             for waiting, blocking in links:
-                if queue[waiting] < queue[blocking]:
-                    queue[blocking], changed = queue[waiting], True
+                if queue[waiting] - INHERIT_AHEAD < queue[blocking]:  # just ahead of the one it blocks
+                    queue[blocking], changed = queue[waiting] - INHERIT_AHEAD, True
             if not changed:
                 break
         return queue

@@ -402,6 +402,45 @@ def test_a_vehicle_standing_in_the_first_ones_crossing_goes_before_the_vehicles_
     assert d.accel["L"] <= 0.0  # L waits until T has left their crossing
 
 
+def test_a_blocker_that_inherits_a_rank_goes_before_the_vehicle_it_blocks_at_a_merge(
+        paths, movements, conflict_table):
+    """The cycle of three of demand_balanced_high (nash, seed 13, 2000 ms budget, 276 s), rebuilt:
+    S (in first) waits 1 m before its crossing with E, inside which E stands; E waits 1 m before
+    its crossing with W, inside which W (a left turn to the middle exit) stands; W waits 1 m
+    before its merge with S (its game with S says wait: its plan stands). E inherits S's entry
+    time and W inherits it from E; on the tie the ids ranked E ahead of W, so E yielded to W as
+    the one that could still stay out, and no rule told W, standing in E's crossing, to drive
+    out: the three stood for good (103 vehicles never arrived). W now ranks just ahead of E and
+    S: E waits for it, W is told to clear E's crossing (the box rule), and S yields at the merge."""
+    t = conflict_table
+    veh = [("S", "south_middle_straight_middle", 150.0, 0.0), ("W", "west_inner_left_middle", 155.1552, 0.0),
+           ("E", "east_inner_straight_inner", 147.0, 0.0)]
+    entered = {"S": 262.25, "W": 263.15, "E": 263.75}  # [s], as in the run
+    idx = {v: t.index[path] for v, path, _s, _v in veh}
+    zone = {(a, b): (float(t.zone_in[idx[a], idx[b]]), float(t.zone_out[idx[a], idx[b]]))
+            for a in idx for b in idx if a != b and t.kind[idx[a], idx[b]] == 2}  # [m] cross zones
+    assert zone["E", "S"][0] <= 147.0 < zone["E", "S"][1]  # E stands in its crossing with S ...
+    assert zone["E", "W"][0] - GS.safety_margin == pytest.approx(147.0)  # ... waiting for W
+    assert zone["W", "E"][0] <= 155.1552 < zone["W", "E"][1]  # W stands in its crossing with E
+    assert zone["S", "E"][0] - GS.safety_margin == pytest.approx(150.0)  # S waits for E
+    assert t.kind[idx["W"], idx["S"]] == 3  # W and S merge into the north exit's middle lane
+    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    for when in sorted(entered.values()):
+        world = make_world(paths, when, veh)
+        world.role = ["passing" if entered[v[0]] <= when else "ready" for v in veh]
+        f.record_entries(world)
+    assert f.entered == entered
+    world = make_world(paths, 276.05, veh)
+    world.role = ["passing"] * 3
+    want = {"S": 1.0, "W": 0.0, "E": 1.0}  # [m/s^2] the plans' first accelerations (W's stands)
+    plans = {v: Plan.from_accelerations(s, speed, np.full(PROBLEM.steps, want[v]), PROBLEM.dt)
+             for v, _p, s, speed in veh}
+    d = Decisions(accel=dict(want))
+    f.apply(world, _relations(world, movements, t), plans, {}, d)
+    assert d.accel["W"] == pytest.approx(GS.clear_accel)  # W drives out of E's crossing
+    assert d.accel["S"] <= 0.0 and d.accel["E"] <= 0.0  # S yields to W at the merge, E waits for W
+
+
 @pytest.mark.parametrize("v_b, a_b, s_b_past_zone, to_line, held", [
     (0.0, 0.0, False, 8.0, True), (0.5, -1.0, False, 8.0, True), (1.8, -1.5, False, 8.0, True),
     (3.0, 0.0, False, 8.0, False), (3.0, -1.5, False, 8.0, False), (0.0, 0.0, True, 8.0, False),
