@@ -43,6 +43,18 @@ def _entered_in_order(f, paths, vehicles, first):
     return world
 
 
+def _filter_with_entries(paths, conflict_table, veh, entered):
+    """A SafetyFilter whose entry queue recorded each of ``veh`` (make_world's tuples) entering at
+    ``entered[id]`` [s], in that order (vehicles may share a time)."""
+    f = SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, 0.1)
+    for when in sorted(set(entered.values())):
+        world = make_world(paths, when, veh)
+        world.role = ["passing" if entered[v[0]] <= when else "ready" for v in veh]
+        f.record_entries(world)
+    assert f.entered == entered
+    return f
+
+
 def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, movements, conflict_table):
     """Both hold 8 m/s and reach their crossing about together: the one ranked lower (the later
     by time to the zone) cannot stop at its stop line any more and stops 1 m (safety_margin)
@@ -384,12 +396,7 @@ def test_a_vehicle_standing_in_the_first_ones_crossing_goes_before_the_vehicles_
     assert zone["T", "L"][0] <= 142.0 < zone["T", "L"][1]  # T stands in its crossing with L ...
     assert zone["T", "S"][0] - GS.safety_margin == pytest.approx(142.0)  # ... where it waits for S
     assert zone["L", "T"][0] - 150.70 < GS.safety_margin  # L short of its zone with T
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
-    for when in sorted(set(entered.values())):  # the entry times in order (S and T share one)
-        world = make_world(paths, when, veh)
-        world.role = ["passing" if entered[v[0]] <= when else "ready" for v in veh]
-        f.record_entries(world)
-    assert f.entered == entered
+    f = _filter_with_entries(paths, t, veh, entered)  # S and T entered in the same step
     world = make_world(paths, 392.05, veh)
     world.role = ["passing"] * 4
     want = {"L": 2.5, "T": 1.69, "S": 2.5, "N": 2.5}  # [m/s^2] the plans' first accelerations
@@ -424,12 +431,7 @@ def test_a_blocker_that_inherits_a_rank_goes_before_the_vehicle_it_blocks_at_a_m
     assert zone["W", "E"][0] <= 155.1552 < zone["W", "E"][1]  # W stands in its crossing with E
     assert zone["S", "E"][0] - GS.safety_margin == pytest.approx(150.0)  # S waits for E
     assert t.kind[idx["W"], idx["S"]] == 3  # W and S merge into the north exit's middle lane
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
-    for when in sorted(entered.values()):
-        world = make_world(paths, when, veh)
-        world.role = ["passing" if entered[v[0]] <= when else "ready" for v in veh]
-        f.record_entries(world)
-    assert f.entered == entered
+    f = _filter_with_entries(paths, t, veh, entered)
     world = make_world(paths, 276.05, veh)
     world.role = ["passing"] * 3
     want = {"S": 1.0, "W": 0.0, "E": 1.0}  # [m/s^2] the plans' first accelerations (W's stands)
