@@ -49,6 +49,8 @@ class Leader(NamedTuple):
     gap: float  # [m] distance along the shared stretch (front to front)
     until: float = math.inf  # [m] leader's s (own path) past which it no longer constrains the
     #                          follower: the end of a diverging shared stretch plus a length
+    merge: bool = False  # a confluence: the leader came from another lane and may still be
+    #                      turning in, its body off the follower's path (SafetyFilter._leader_caps)
 
 
 class Lateral(NamedTuple):
@@ -283,8 +285,9 @@ def _leaders(risk, d, k_of: np.ndarray, clear: float, length: np.ndarray) -> dic
     _, first_seen = np.unique(follow, return_index=True)  # by follower too
     firsts = firsts[np.argsort(first_seen)]
     offset = (s_cp_f - s_cp_l)[firsts]
-    return {int(f): Leader(int(v), float(o), float(g), float(u)) for f, v, o, g, u in zip(
-        follow[firsts], k_of[lead[firsts]], offset, gap[firsts], until[firsts])}
+    merge = risk.kind[m] == KIND_CONFLUENCE
+    return {int(f): Leader(int(v), float(o), float(g), float(u), bool(c)) for f, v, o, g, u, c in zip(
+        follow[firsts], k_of[lead[firsts]], offset, gap[firsts], until[firsts], merge[firsts])}
 
 
 def _zones(table: ConflictTable, p: tuple[np.ndarray, np.ndarray], s_cp: tuple[np.ndarray, np.ndarray],

@@ -389,6 +389,13 @@ class SafetyFilter:
             gap = lead.gap - length - st.safety_margin - self.gap_slack  # [m] bumper to bumper, less margin
             lead_brake = brakes.get(world.ids[lead.vehicle], self.problem.a_min)  # [m/s^2]
             v, v_lead = float(world.v[k]), float(world.v[lead.vehicle])  # [m/s]
+            if lead.merge and gap < 0.0:
+                # at a merge, level with a leader whose rear is not yet a margin ahead along the
+                # paths: it may still be turning in, its rear corner off the path the gap is
+                # measured along, so its speed earns no Krauss credit: stop until it is ahead
+                # (demand_balanced_high, stackelberg, seed 2, 124.75 s: 0.3 m into a right turner)
+                cap[vid] = min(cap.get(vid, math.inf), -v / self.period)
+                continue
             limit = (krauss_safe_speed(gap, v_lead, -self._brake(world, k), self.period, -lead_brake) - v) / self.period
             cap[vid] = min(cap.get(vid, math.inf), limit)
             own = brakes.get(vid, self.problem.a_min)  # [m/s^2]

@@ -39,7 +39,8 @@ def loop_relations(world, rows, active, table, model, etm):
             if follow in leaders and leaders[follow].gap <= gap:
                 continue
             until = s_cp_l + clear if risk.kind[m] == KIND_FOLLOWING else math.inf
-            leaders[follow] = Leader(int(k_of[lead]), float(s_cp_f - s_cp_l), float(gap), float(until))
+            leaders[follow] = Leader(int(k_of[lead]), float(s_cp_f - s_cp_l), float(gap), float(until),
+                                     bool(risk.kind[m] == KIND_CONFLUENCE))
         elif risk.kind[m] in (KIND_CROSS, KIND_CONFLUENCE):
             both = k_of[ri] in active and k_of[rj] in active
             if not both and k_of[ri] not in active and k_of[rj] not in active:

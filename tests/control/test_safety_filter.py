@@ -284,6 +284,36 @@ def test_a_turner_standing_with_its_rear_in_a_crossing_still_holds_the_other(pat
     assert d.accel["L"] == pytest.approx(GS.clear_accel)  # and L, standing in the crossing, drives out
 
 
+def test_at_a_merge_a_follower_level_with_a_leader_turning_in_waits(paths, movements, conflict_table):
+    """demand_balanced_high (stackelberg, seed 2, 20 ms budget, 123.55 s): the right turner R has
+    just passed the point where its path meets the straight path of S, so R leads S into their
+    exit lane, but along the paths R's rear is still 2.3 m behind S's front: R's body is swinging
+    in. Krauss' safe speed, with the gap clamped at 0 and credit for R's 2.7 m/s, let S go on at
+    2.4 m/s^2, and 1.2 s later S's front was 0.3 m into R's rear corner (SUMO did not count it;
+    our body check did). S now waits until R is a margin ahead; R goes on."""
+    t = conflict_table
+    turner, straight = "north_outer_right_outer", "east_outer_straight_outer"
+    p, q = t.index[turner], t.index[straight]
+    assert t.kind[p, q] == 3  # a confluence: both end on the west exit's outer lane
+    s_r, v_r, s_s, v_s = 138.72, 2.70, 156.97, 1.14  # [m], [m/s] as in the run
+    assert s_r > t.s_a[p, q] and s_s < t.s_a[q, p]  # R past its merge point, S short of its own
+    a_r, a_s = 1.5, 2.43  # [m/s^2] the plans' first accelerations
+    # driven on as planned, the two bodies (headed as SUMO heads them) meet within 1.5 s
+    times = np.arange(0.0, 1.5, 0.05)
+    assert any(_in_the_way(paths, turner, s_r + v_r * x + 0.5 * a_r * x * x, straight,
+                           np.array([s_s + v_s * x + 0.5 * a_s * x * x])) for x in times)
+    f = _filter_with_entries(paths, t, [("R", turner, s_r, v_r), ("S", straight, s_s, v_s)], {"S": 100.0, "R": 120.0})
+    world = make_world(paths, 123.55, [("R", turner, s_r, v_r), ("S", straight, s_s, v_s)])
+    world.role = ["passing", "passing"]
+    plans = {"R": Plan.from_accelerations(s_r, v_r, np.full(PROBLEM.steps, a_r), PROBLEM.dt),
+             "S": Plan.from_accelerations(s_s, v_s, np.full(PROBLEM.steps, a_s), PROBLEM.dt)}
+    d = Decisions(accel={"R": a_r, "S": a_s})
+    relations = _relations(world, movements, t)
+    assert relations.leader_of(world.ids.index("S"), "outer").vehicle == world.ids.index("R")
+    f.apply(world, relations, plans, {}, d)
+    assert d.accel["S"] < 0.0 and d.accel["R"] == pytest.approx(a_r)
+
+
 @pytest.mark.parametrize("games, braked", [(frozenset({("L", "S")}), False), (frozenset(), True)])
 def test_a_pair_in_a_game_keeps_only_its_share_of_the_time_gap(paths, movements, conflict_table, games, braked):
     """S's plan enters its zone 0.35 s after L's has left it: inside the 0.5 s safety_time_gap,
