@@ -19,7 +19,7 @@ recomputed on every P update). If the new P differs from the slot's current one 
 uses that (still convex) model curvature with the exact gradient.
 
 Interior solutions: before OSQP, the model's unconstrained minimiser a - H^-1 g is computed by a
-Cholesky solve (LAPACK ``dposv``, a few microseconds). If it meets every row, it is the QP's exact
+Cholesky solve (compiled, :mod:`intersection_cosim.games.exact_qp`, a few microseconds). If it meets every row, it is the QP's exact
 solution (no row active, all multipliers zero) and OSQP is not called; so it is for two thirds
 of the QPs of a congested run. Otherwise OSQP solves the QP as above. The exact answer differs
 from OSQP's by its tolerance (median 5e-5 m/s^2, at most about 1e-3 m/s^2 on recorded games).
@@ -44,8 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 import osqp
 import scipy.sparse as sp
-from scipy.linalg import lapack
 
+from intersection_cosim.games.exact_qp import BOX, INTERIOR, NOT_FOUND, exact_qp, exact_qps
 from intersection_cosim.games.settings import GameSettings
 
 _SOLVED = int(osqp.SolverStatus.OSQP_SOLVED)
@@ -112,7 +112,7 @@ class QPWorkspace:
         return (-v0 / dt) * rs, ((v_cap - v0) / dt) * rs
 
     def solve(self, H: np.ndarray, g: np.ndarray, a: np.ndarray, l: np.ndarray, u: np.ndarray,
-              y0: np.ndarray | None = None, reuse: bool = True) -> QPSolution:
+              y0: np.ndarray | None = None, reuse: bool = True, exact: bool = True) -> QPSolution:
         """min 1/2 x^T H x + (g - H a)^T x  s.t.  l <= R [I; Lv] x <= u, warm-started at x = a.
 
         This is the model g^T (x - a) + 1/2 (x - a)^T H (x - a) of an SQP step. ``l``, ``u`` are
@@ -121,12 +121,12 @@ class QPWorkspace:
         warm-start with (e.g. carried by the previous control step's plan); without it OSQP keeps
         the duals of the slot's previous solve. With ``reuse`` the installed P may stand in for H
         (module docstring); the solution reports the H used. A QP whose unconstrained minimiser
-        meets every row is answered exactly without OSQP (module docstring, "Interior solutions").
+        meets every row is answered exactly without OSQP (module docstring, "Interior solutions");
+        ``exact=False`` skips that (:meth:`exact_many` has found none).
         """
         _local.solves = getattr(_local, "solves", 0) + 1
-        exact = self._exact(H, g, a, l, u)
-        if exact is not None:
-            return exact
+        if exact and (answer := self._exact(H, g, a, l, u)) is not None:
+            return answer
         Hc = self.H
         if reuse and Hc is not None and (H is Hc or abs(H - Hc).max() <= self._reuse_bound):
             H = Hc
@@ -164,6 +164,17 @@ class QPWorkspace:
             return QPSolution(None, None, None, status, iters)
         return QPSolution(x, y, H, "solved", iters, rs / scale)
 
+    def exact_many(self, H: np.ndarray, g: np.ndarray, a: np.ndarray, l: np.ndarray,
+                   u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`solve`'s exact answers of m QPs at once (H (m, N, N); g, a (m, N); l, u (m, 2N)):
+        (found (m,) bool, x (m, N) [m/s^2], y (m, 2N) the multipliers :attr:`QPSolution.y`
+        would hold). A QP not found needs :meth:`solve` with ``exact=False``; each found one
+        counts as a solve (:func:`solve_count`)."""
+        status, x, y = exact_qps(H, g, a, l, u, self.row_scale, self.gs.solver.qp_box_iter)
+        found = status != NOT_FOUND
+        _local.solves = getattr(_local, "solves", 0) + int(found.sum())
+        return found, x, y
+
     def _solve_public(self, q, l, u, Px, a, y_scaled):
         """OSQP's public interface where the extension object is not reachable: update (P values
         only when ``Px`` is given), warm start at ``a`` (and ``y_scaled``), solve. Returns OSQP's
@@ -183,51 +194,12 @@ class QPWorkspace:
                u: np.ndarray) -> QPSolution | None:
         """The exact solution of :meth:`solve`'s QP when no row is active, x = a - H^-1 g [m/s^2]
         (module docstring, "Interior solutions"), or when only input-box rows are ("Box
-        solutions"); None when H is not positive definite, a number is not finite, or a speed
-        row is active (then OSQP solves it)."""
-        _, x, info = lapack.dposv(H, g)
-        if info != 0:
-            return None
-        x = a - x
-        if self._meets_rows(x, l, u):  # no row active, all multipliers zero
+        solutions"), by :func:`~intersection_cosim.games.exact_qp.exact_qp`; None when H is not
+        positive definite, a number is not finite, or a speed row is active (then OSQP solves it)."""
+        status, x, y = exact_qp(H, g, a, l, u, self.row_scale, self.gs.solver.qp_box_iter)
+        if status == INTERIOR:  # no row active, all multipliers zero
             return QPSolution(x, self._no_duals, H, "solved", 0, self._no_duals)
-        if self.gs.solver.qp_box_iter == 0 or not np.isfinite(x).all():
-            return None
-        return self._box_solution(H, g - H @ a, x, l, u)
-
-    def _meets_rows(self, x: np.ndarray, l: np.ndarray, u: np.ndarray) -> bool:
-        """Whether accelerations ``x`` [m/s^2] meet every (scaled) row; False for NaN."""
-        rows = np.concatenate((x, x.cumsum()))
-        rows[self.n:] *= self.row_scale[self.n:]
-        return bool(((l <= rows) & (rows <= u)).all())
-
-    def _box_solution(self, H: np.ndarray, c: np.ndarray, x: np.ndarray, l: np.ndarray,
-                      u: np.ndarray) -> QPSolution | None:
-        """The minimiser of 1/2 x^T H x + c^T x over the input box l[:N] <= x <= u[:N], by the
-        primal-dual active-set method of the module docstring ("Box solutions") started from the
-        unconstrained minimiser ``x``, if it meets the speed rows; else None."""
-        n = self.n
-        lo, hi = l[:n], u[:n]
-        up, down = x > hi, x < lo
-        for _ in range(self.gs.solver.qp_box_iter):
-            fixed = up | down
-            x = np.where(up, hi, np.where(down, lo, 0.0))
-            free = np.flatnonzero(~fixed)
-            if free.size:
-                _, x_free, info = lapack.dposv(H[np.ix_(free, free)], -(c + H @ x)[free])
-                if info != 0:
-                    return None
-                x[free] = x_free
-            r = H @ x + c  # the gradient; a fixed bound's multiplier is -r
-            new_up = (up & (r <= 0.0)) | (~fixed & (x > hi))
-            new_down = (down & (r >= 0.0)) | (~fixed & (x < lo))
-            if (new_up ^ up).any() or (new_down ^ down).any():
-                up, down = new_up, new_down
-                continue
-            if not self._meets_rows(x, l, u):
-                return None
-            y = np.zeros(2 * n)
-            y[:n] = np.where(fixed, -r, 0.0)
+        if status == BOX:
             return QPSolution(x, y, H, "solved", 0, self.row_scale)
         return None
 

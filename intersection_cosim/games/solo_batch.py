@@ -6,9 +6,10 @@ Eqs. 15-18 and J_e of Eq. 24 in the running cost of Eqs. 13-14, with the comfort
 solves one such problem at a time; most of its time is Python around small numpy calls. Here the
 problems of a control step are stacked: positions, speeds, true costs, gradients, Gauss-Newton
 Hessians, bounds, the line search and the trust-region logic are computed for all vehicles at
-once as (m, N) and (m, N, N) arrays; only the QPs remain one call per vehicle (the workspace
-slot ``("nash", 0)`` that ``solo_response`` uses: exact when no bound or only input bounds are
-active, else OSQP; :mod:`intersection_cosim.games.qp`). The SQP is the one of
+once as (m, N) and (m, N, N) arrays; so are the QPs' exact answers (no bound or only input
+bounds active: one compiled call for all, :meth:`~intersection_cosim.games.qp.QPWorkspace.exact_many`),
+and only the QPs those miss go to OSQP, one call per vehicle (the workspace slot ``("nash", 0)``
+that ``solo_response`` uses; :mod:`intersection_cosim.games.qp`). The SQP is the one of
 :mod:`intersection_cosim.games.sqp` (model QP in a trust region, Armijo line search on the true
 cost, radius update) and the iteration the one of ``solo_response`` (``nash_max_iter`` SQP
 steps, residual and cost-gain tests of :mod:`intersection_cosim.games.nash`), with two
@@ -343,29 +344,29 @@ class SoloBatch:
         hi = np.minimum(a + st.delta[rp, None], self.a_hi[rp, None])
         ws = workspace(n, self.gs, ("nash", 0))  # the slot solo_response uses
         sp_lo, sp_hi = ws.speed_rows(self.v0[rp], self.v_cap[rp], self.dt)
-        x = np.empty_like(a)
-        pred = np.zeros(len(rp))
+        l, u = np.concatenate((lo, sp_lo), axis=1), np.concatenate((hi, sp_hi), axis=1)
+        found, x, y = ws.exact_many(H, g, a, l, u)  # most QPs: exact answers, one compiled call
         ok = np.ones(len(rp), bool)
-        used = [None] * len(rp)  # the Hessian each QP used (the workspace may keep its installed one)
-        for j, i in enumerate(rp):
+        st.qps[rp] += 1
+        for j in np.flatnonzero(~found):
+            i = rp[j]
             # never another vehicle's installed P (hessian_reuse_tol is a max-norm test that the
             # small comfort terms pass whatever their weight): a capped solve takes the QP's answer
-            sol = ws.solve(H[j], g[j], a[j], np.concatenate((lo[j], sp_lo[j])), np.concatenate((hi[j], sp_hi[j])),
-                           y0=st.duals[i] if first else None, reuse=False)
-            st.qps[i] += 1
+            sol = ws.solve(H[j], g[j], a[j], l[j], u[j], y0=st.duals[i] if first else None, reuse=False, exact=False)
             if not sol.ok:
-                st.failure[i], ok[j] = f"OSQP: {sol.status}", False
+                st.failure[i], ok[j], x[j] = f"OSQP: {sol.status}", False, a[j]
                 continue
-            st.y[i], used[j] = sol.y, sol.H
-            x[j] = np.minimum(np.maximum(sol.x, self.a_lo[i]), self.a_hi[i])
+            x[j], y[j] = sol.x, sol.y
+        for j in np.flatnonzero(ok):
+            st.y[rp[j]] = y[j]
+        x = np.minimum(np.maximum(x, self.a_lo[rp, None]), self.a_hi[rp, None])
         cs = x.cumsum(axis=1)
         bad = ok & ((cs.min(axis=1) < self.sum_lo[rp]) | (cs.max(axis=1) > self.sum_hi[rp]))
         for j in np.nonzero(bad)[0]:
             i = rp[j]
             x[j] = project_accelerations(x[j], self.v0[i], self.v_cap[i], self.limits[i])
-        for j in np.nonzero(ok)[0]:
-            d = x[j] - a[j]
-            pred[j] = -float(g[j] @ d + 0.5 * (d @ used[j] @ d))
+        d = x - a  # every QP used its own H (reuse=False)
+        pred = np.where(ok, -(np.einsum("mi,mi->m", g, d) + 0.5 * np.einsum("mi,mij,mj->m", d, H, d)), 0.0)
         step = np.abs(x - a).max(axis=1)
         return x, pred, step, ok
 

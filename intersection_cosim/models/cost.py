@@ -2,12 +2,15 @@
 
 All functions take numpy arrays (or scalars) and broadcast. Speeds in m/s, distances in m,
 times in s. These are the *true* costs; the game solvers convexify them but always judge a step
-by these functions.
+by these functions. The three the solvers evaluate thousands of times a control step (J_log,
+J_lat, TCP) are compiled numpy ufuncs (numba ``vectorize``): one call instead of some ten numpy
+calls of about a microsecond each on a 30-step horizon, with the same floating-point operations.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import vectorize
 
 from intersection_cosim.models.settings import ModelSettings
 
@@ -34,21 +37,32 @@ def _ttc_log(gap: np.ndarray, dv: np.ndarray) -> np.ndarray:
     return out
 
 
+@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
+def _j_log(gap, v, v_lead, eps):  # pragma: no cover - compiled
+    """J_s-log at one step (:func:`longitudinal_safety_cost`)."""
+    if gap < 0.0:
+        return 1.0 / eps
+    dv = v - v_lead
+    if dv > 0.0:
+        ttc = gap / dv
+        return 1.0 / (ttc * ttc + eps)
+    return 0.0
+
+
 def longitudinal_safety_cost(gap, v, v_lead, eps):
     """J_s-log = gamma_log / (TTC_log^2 + eps) (Eqs. 15-18); gamma_log = 0 when not closing.
 
     Dimensionless cost [1/s^2 scaled]; eps [s^2] > 0. Where the bodies overlap (gap < 0) TTC_log
     is 0 and the cost 1 / eps; where the host does not close in (or TTC_log is infinite) it is 0.
     """
-    gap = np.asarray(gap, float)
-    dv = np.asarray(v, float) - np.asarray(v_lead, float)
-    if gap.shape != dv.shape:
-        gap, dv = np.broadcast_arrays(gap, dv)
-    overlap = gap < 0.0
-    closing = dv > 0.0
-    ttc = np.divide(gap, dv, out=np.zeros(gap.shape), where=closing & ~overlap)  # [s]
-    out = np.where(closing | overlap, 1.0 / (np.square(ttc) + eps), 0.0)  # 0 where TTC_log is infinite
-    return out if out.ndim else float(out)
+    out = _j_log(gap, v, v_lead, eps)
+    return out if np.ndim(out) else float(out)
+
+
+@vectorize(["float64(float64, float64, float64)"], cache=True)
+def _tcp(distance, v, speed_floor):  # pragma: no cover - compiled
+    """TCP at one step (:func:`time_to_conflict_point`); NaN speeds stay NaN, as np.maximum."""
+    return distance / (v if (v > speed_floor or v != v) else speed_floor)
 
 
 def time_to_conflict_point(distance, v, speed_floor=0.1):
@@ -57,14 +71,23 @@ def time_to_conflict_point(distance, v, speed_floor=0.1):
     distance [m] is signed (negative once the vehicle is past the point); the speed [m/s] is
     floored at ``speed_floor`` so a stopped vehicle has a large, finite TCP.
     """
-    out = np.asarray(distance, float) / np.maximum(np.asarray(v, float), speed_floor)
-    return out if out.ndim else float(out)
+    out = _tcp(distance, v, speed_floor)
+    return out if np.ndim(out) else float(out)
 
 
 def lateral_ttc(tcp_i, tcp_j):
     """[s] TTC_lat = TCP_i - TCP_j (Eq. 20): how far apart in time the two reach the point."""
     out = np.asarray(tcp_i, float) - np.asarray(tcp_j, float)
     return out if out.ndim else float(out)
+
+
+@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
+def _j_lat(tcp_i, tcp_j, eps, weight):  # pragma: no cover - compiled
+    """J_s-lat at one step times its ``weight`` (:func:`lateral_safety_cost`); 0 where the weight is."""
+    if weight == 0.0:
+        return 0.0
+    ttc = tcp_i - tcp_j
+    return (1.0 / (ttc * ttc + eps)) * weight
 
 
 def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
@@ -75,11 +98,8 @@ def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
     is a weight per step (0 where not active) that multiplies the cost: the term's risk
     weight of ``games.objective.lateral_risk_weight``.
     """
-    ttc = np.subtract(tcp_i, tcp_j, dtype=float)  # TTC_lat (Eq. 20), as lateral_ttc
-    out = np.where(active, 1.0 / (np.square(ttc) + eps), 0.0)
-    if isinstance(active, np.ndarray) and active.dtype.kind == "f":
-        out = out * active
-    return out if out.ndim else float(out)
+    out = _j_lat(tcp_i, tcp_j, eps, active)
+    return out if np.ndim(out) else float(out)
 
 
 def lane_keeping_cost(lateral_offset, heading_error, k_y, k_phi):
