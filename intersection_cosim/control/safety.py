@@ -66,6 +66,7 @@ import math
 from typing import Mapping, NamedTuple
 
 import numpy as np
+from numba import njit
 
 from intersection_cosim.control.base import Decisions, World
 from intersection_cosim.control.plan_memory import human_forecast
@@ -124,17 +125,32 @@ def reach_times(positions: np.ndarray, lengths: np.ndarray, dt: np.ndarray, row:
     sample, whatever the order of the rest): always for a non-decreasing plan, and for a
     plan that stands still to the last bit (its positions wobble by 1e-15) unless the
     target lies inside the wobble."""
-    pos = positions[row]  # (M, L)
-    below = pos < target[:, None]
-    k = below.sum(axis=1)  # = searchsorted: first sample at or past target
-    exact = (below.argmin(axis=1) == k) | (k == below.shape[1])  # argmin: the first sample not below
-    n = lengths[row]
-    kk = np.clip(k, 1, positions.shape[1] - 1)
-    m = np.arange(len(row))
-    p0, p1 = pos[m, kk - 1], pos[m, kk]
-    with np.errstate(invalid="ignore"):  # padded (inf) samples where k >= n: not used
-        t = dt[row] * (kk - 1 + (target - p0) / np.maximum(p1 - p0, 1e-9))
-    return np.where(k == 0, 0.0, np.where(k >= n, math.inf, t)), exact
+    return _reach_times(positions, lengths, dt, np.asarray(row, np.intp), np.asarray(target, float))
+
+
+@njit(cache=True)
+def _reach_times(positions, lengths, dt, row, target):  # pragma: no cover - compiled
+    """:func:`reach_times`, compiled: one pass over each row instead of some 15 numpy calls."""
+    m, width = row.shape[0], positions.shape[1]
+    times, exact = np.empty(m), np.empty(m, np.bool_)
+    for i in range(m):
+        r, x = row[i], target[i]
+        k, first = 0, -1  # samples below the target; the first sample not below it
+        for j in range(width):
+            if positions[r, j] < x:
+                k += 1
+            elif first < 0:
+                first = j
+        exact[i] = first == k or k == width
+        if k == 0:
+            times[i] = 0.0
+        elif k >= lengths[r]:
+            times[i] = math.inf
+        else:
+            kk = min(k, width - 1)
+            p0, p1 = positions[r, kk - 1], positions[r, kk]
+            times[i] = dt[r] * (kk - 1 + (x - p0) / max(p1 - p0, 1e-9))
+    return times, exact
 
 
 def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:

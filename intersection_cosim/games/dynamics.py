@@ -13,6 +13,7 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 
 @dataclass(frozen=True)
@@ -58,10 +59,24 @@ def state_offset(s0: float, v0: float, hm: HorizonMatrices) -> np.ndarray:
     return out
 
 
-def trajectory(a: np.ndarray, offset: np.ndarray, hm: HorizonMatrices) -> tuple[np.ndarray, np.ndarray]:
-    """[m/s], [m]: v_0..v_N and s_0..s_N for accelerations ``a`` (N,), one matrix product."""
-    full = hm.M @ a + offset
+def plan_trajectory(s0: float, v0: float, a: np.ndarray, hm: HorizonMatrices) -> tuple[np.ndarray, np.ndarray]:
+    """[m/s], [m]: v_0..v_N and s_0..s_N from s0 [m], v0 [m/s] for accelerations ``a`` (N,)
+    [m/s^2]: ``hm.M @ a`` plus :func:`state_offset`, compiled into one call (every Plan is built
+    by it, some hundred a control step)."""
+    full = _plan_trajectory(float(s0), float(v0), a, hm.M, hm.t)
     return full[:hm.n + 1], full[hm.n + 1:]
+
+
+@njit(cache=True)
+def _plan_trajectory(s0, v0, a, M, t):  # pragma: no cover - compiled
+    n = a.shape[0]
+    full = np.empty(2 * n + 2)
+    for i in range(2 * n + 2):
+        acc = v0 if i <= n else (s0 if i == n + 1 else s0 + v0 * t[i - n - 2])
+        for j in range(n):
+            acc += M[i, j] * a[j]
+        full[i] = acc
+    return full
 
 
 def rollout(s0: float, v0: float, a, dt: float) -> tuple[np.ndarray, np.ndarray]:

@@ -43,8 +43,9 @@ import numpy as np
 from intersection_cosim.games.dynamics import horizon_matrices, state_offset, stay_behind
 from intersection_cosim.games.problem import Plan, Player, Problem, speed_cap
 from intersection_cosim.games.settings import GameSettings
-from intersection_cosim.models.cost import (lateral_safety_cost, longitudinal_safety_cost,
-                                            time_to_conflict_point)
+from intersection_cosim.games import convex_model as cm
+from intersection_cosim.games.true_cost import PARAMS, true_costs
+from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
 
 
@@ -191,6 +192,13 @@ class PlayerObjective:
         self._log: list = []  # per following term: (leader s in own frame minus length (N,), leader v (N,))
         if self._exo is not None and self.log_terms and not self.lat_terms and len(self.log_terms) == 1:
             self._log = [self._exo]  # nothing else to wait for: usable before set_others
+        values = {"dt": dt, "kappa": self.kappa, "k_log": ms.k_log, "k_lat": ms.k_lat, "k_lk": ms.k_lk,
+                  "k_e": ms.k_e, "j_lk": self.j_lk, "v_max": self.v_max, "w_acc": self.w_acc,
+                  "jerk_w": self.jerk_w, "eps": self._eps, "speed_floor": self._floor, "clearance": self._clr}
+        self._params = np.array([values[k] for k in PARAMS], dtype=float)  # of true_costs
+        values.update(w_lat=self.w_lat, w_log=self.w_log, gap_floor=self.gs.solver.gap_floor)
+        self._model_params = np.array([values[k] for k in cm.PARAMS], dtype=float)  # of convex_model
+        self._stack: tuple | None = None  # (_lat, _log, their arrays for true_costs)
 
     @property
     def coupled(self) -> bool:
@@ -255,67 +263,38 @@ class PlayerObjective:
 
     # ------------------------------------------------------------------ true cost
     def cost(self, a) -> np.ndarray | float:
-        """[-] true cost C_p(a) (module docstring); ``a`` of shape (N,) or (m, N)."""
+        """[-] true cost C_p(a) (module docstring); ``a`` of shape (N,) or (m, N): a float or (m,)
+        (games.true_cost, compiled)."""
         a = np.asarray(a, dtype=float)
-        v, s = self._vs(a)
-        j_lat = 0.0
-        for scp, tcp_q, open_q in self._lat:
-            tcp = time_to_conflict_point(scp - s, v, self._floor)
-            j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, self._eps, (s <= scp + self._clr) * open_q)
-        return self._finish(a, v, s, j_lat)
+        rows = true_costs(np.ascontiguousarray(a if a.ndim == 2 else a[None]), self.hm.M, self._offset,
+                          *self._stacked(), self._params)
+        return float(rows[0]) if a.ndim == 1 else rows
 
-    def _finish(self, a, v, s, j_lat):
-        """Add J_log, J_e, J_lk and comfort to J_lat and sum over the horizon (Eqs. 13-14)."""
-        ms = self.ms
-        j_log = 0.0
-        for s_lead, v_lead in self._log:
-            j_log = j_log + longitudinal_safety_cost(s_lead - s, v, v_lead, self._eps)
-        # running_cost(kappa, j_log, j_lat, j_lk, efficiency_cost(v, v_max, k_e)) (Eqs. 13-14, 24),
-        # written out: the same operations in the same order, without the helpers' conversions
-        j_e = ms.k_e * np.square(v - self.v_max)
-        run = (1.0 - self.kappa) * (ms.k_log * j_log + ms.k_lat * j_lat + ms.k_lk * self.j_lk) + self.kappa * j_e
-        if a.ndim == 1:
-            da = a[1:] - a[:-1]
-            return self.dt * (float(run.sum()) + self.w_acc * float(a @ a)
-                              + self.jerk_w * float(da @ da))
-        da = a[:, 1:] - a[:, :-1]
-        return self.dt * (run.sum(axis=-1) + self.w_acc * (a * a).sum(axis=-1)
-                          + self.jerk_w * (da * da).sum(axis=-1))
+    def _stacked(self) -> tuple:
+        """The lateral and following terms' data as the arrays :func:`true_costs` takes, built
+        once per :meth:`set_others` that changed them."""
+        if self._stack is None or self._stack[0] is not self._lat or self._stack[1] is not self._log:
+            n = self.n
+            lat = (np.array([t[0] for t in self._lat], dtype=float),
+                   np.array([t[1] for t in self._lat], dtype=float).reshape(-1, n),
+                   np.array([t[2] for t in self._lat], dtype=float).reshape(-1, n))
+            log = (np.array([t[0] for t in self._log], dtype=float).reshape(-1, n),
+                   np.array([t[1] for t in self._log], dtype=float).reshape(-1, n))
+            self._stack = (self._lat, self._log, lat + log)
+        return self._stack[2]
 
     # ------------------------------------------------------------------ convex model
     def cost_and_model(self, a: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """True cost, gradient (N,) and convex Gauss-Newton Hessian (N, N) at ``a`` (N,)."""
-        v, s = self._vs(a)
-        grad = self.Q @ a + self.b0
-        H = self.Q.copy()
-        j_lat = 0.0
-        if self._lat:
-            inv = 1.0 / np.maximum(v, self._floor)
-            for scp, tcp_q, open_q in self._lat:
-                d = scp - s
-                tcp = time_to_conflict_point(d, v, self._floor)
-                active = (s <= scp + self._clr) * open_q
-                j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, self._eps, active)
-                self._lateral_model(tcp - tcp_q, d, v, inv, active, grad, H)
-        for s_lead, v_lead in self._log:
-            self._following_model(s_lead, v_lead, v, s, grad, H)
-        return self._finish(a, v, s, j_lat), grad, H
+        grad, H = self.model(a)
+        return self.cost(a), grad, H
 
     def model(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Gradient (N,) and convex Gauss-Newton Hessian (N, N) of C_p at ``a``."""
-        grad = self.Q @ a + self.b0
-        H = self.Q.copy()
-        if self._lat or self._log:
-            v, s = self._vs(a)
-            if self._lat:
-                inv = 1.0 / np.maximum(v, self._floor)
-                for scp, tcp_q, open_q in self._lat:
-                    d = scp - s
-                    self._lateral_model(d * inv - tcp_q, d, v, inv, (s <= scp + self._clr) * open_q,
-                                        grad, H)
-            for s_lead, v_lead in self._log:
-                self._following_model(s_lead, v_lead, v, s, grad, H)
-        return grad, H
+        """Gradient (N,) and convex Gauss-Newton Hessian (N, N) of C_p at ``a`` (games.convex_model,
+        compiled)."""
+        hm = self.hm
+        return cm.convex_model(np.ascontiguousarray(a, dtype=float), hm.M, self._offset, self.Q, self.b0,
+                               hm.k_half, hm.m_dt2, *self._stacked(), self._model_params)
 
     def cost_and_gradient(self, a: np.ndarray) -> tuple[float, np.ndarray]:
         """True cost and its gradient (N,) where smooth, without forming any N x N matrix.
@@ -326,7 +305,6 @@ class PlayerObjective:
         hm, dt = self.hm, self.dt
         v, s = self._vs(a)
         grad = self.Q @ a + self.b0
-        j_lat = 0.0
         if self._lat:
             eps = self._eps
             inv = 1.0 / np.maximum(v, self._floor)
@@ -334,7 +312,6 @@ class PlayerObjective:
                 d = scp - s
                 tcp = time_to_conflict_point(d, v, self._floor)
                 active = (s <= scp + self._clr) * open_q
-                j_lat = j_lat + lateral_safety_cost(tcp, tcp_q, eps, active)
                 if active.any():
                     g = tcp - tcp_q
                     den = g * g + eps
@@ -352,7 +329,7 @@ class PlayerObjective:
                 w1 = (self.w_log * closing) * 2.0 * r / (den * den)
                 x = dv / (gap * gap) * w1
                 grad += dt * _rcumsum(w1 / gap) + _rcumsum(hm.k_half * x) - hm.m_dt2 * _rcumsum(x)
-        return self._finish(a, v, s, j_lat), grad
+        return self.cost(a), grad
 
     def gradient(self, a: np.ndarray) -> np.ndarray:
         """Gradient of the true cost where it is smooth (N,)."""
@@ -376,15 +353,6 @@ class PlayerObjective:
         w = self.w_lat * active
         return w * (-2.0 * g) / den2, w * np.maximum((6.0 * gg - 2.0 * eps) / (den2 * den), 0.0)
 
-    def _lateral_model(self, g, d, v, inv, active, grad, H) -> None:
-        """Add the Gauss-Newton model of sum_k w_lat f(g_k) (Eq. 19), g = TTC_lat, to grad, H."""
-        if not active.any():
-            return
-        w1, w2 = self._lateral_weights(g, active)
-        G = self._lateral_jacobian(d, v, inv)
-        grad += G.T @ w1
-        H += (G.T * w2) @ G
-
     def _following_jacobian(self, gap, dv):
         """d(1 / TTC_log)/da (N, N) for r = dv / gap."""
         hm = self.hm
@@ -406,15 +374,6 @@ class PlayerObjective:
         w = self.w_log * closing
         return (self._following_jacobian(gap, dv), w * 2.0 * r / den2,
                 w * np.maximum((2.0 - 6.0 * eps * r * r) / (den2 * den), 0.0))
-
-    def _following_model(self, s_lead, v_lead, v, s, grad, H) -> None:
-        """Add the Gauss-Newton model of sum_k w_log h(r_k) (Eq. 15), r = 1 / TTC_log."""
-        terms = self._following_terms(s_lead, v_lead, v, s)
-        if terms is None:
-            return
-        R, w1, w2 = terms
-        grad += R.T @ w1
-        H += (R.T * w2) @ R
 
     # ------------------------------------------------------------------ pair model (Stackelberg)
     def pair_model(self, a: np.ndarray, q: int, plan_q, partner_curvature: bool = True) -> tuple[np.ndarray, ...]:

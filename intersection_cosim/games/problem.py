@@ -20,7 +20,7 @@ from typing import Sequence
 
 import numpy as np
 
-from intersection_cosim.games.dynamics import horizon_matrices, state_offset, trajectory
+from intersection_cosim.games.dynamics import horizon_matrices, plan_trajectory
 from intersection_cosim.games.settings import GameSettings
 
 INTERACTION_KINDS = ("cross", "confluence", "following")
@@ -174,8 +174,7 @@ class Plan:
     def from_accelerations(cls, s0: float, v0: float, a, dt: float,
                            duals: np.ndarray | None = None) -> "Plan":
         a = np.array(a, dtype=float)
-        hm = horizon_matrices(a.shape[0], float(dt))
-        v, s = trajectory(a, state_offset(s0, v0, hm), hm)
+        v, s = plan_trajectory(s0, v0, a, horizon_matrices(a.shape[0], float(dt)))
         return cls(a, v, s, dt, duals)
 
     @property

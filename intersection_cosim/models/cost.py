@@ -10,7 +10,7 @@ calls of about a microsecond each on a 30-step horizon, with the same floating-p
 from __future__ import annotations
 
 import numpy as np
-from numba import vectorize
+from numba import njit, vectorize
 
 from intersection_cosim.models.settings import ModelSettings
 
@@ -37,9 +37,9 @@ def _ttc_log(gap: np.ndarray, dv: np.ndarray) -> np.ndarray:
     return out
 
 
-@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def _j_log(gap, v, v_lead, eps):  # pragma: no cover - compiled
-    """J_s-log at one step (:func:`longitudinal_safety_cost`)."""
+@njit(cache=True)
+def j_log_step(gap, v, v_lead, eps):  # pragma: no cover - compiled
+    """J_s-log at one step (:func:`longitudinal_safety_cost`), for compiled callers."""
     if gap < 0.0:
         return 1.0 / eps
     dv = v - v_lead
@@ -47,6 +47,11 @@ def _j_log(gap, v, v_lead, eps):  # pragma: no cover - compiled
         ttc = gap / dv
         return 1.0 / (ttc * ttc + eps)
     return 0.0
+
+
+@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
+def _j_log(gap, v, v_lead, eps):  # pragma: no cover - compiled
+    return j_log_step(gap, v, v_lead, eps)
 
 
 def longitudinal_safety_cost(gap, v, v_lead, eps):
@@ -59,10 +64,16 @@ def longitudinal_safety_cost(gap, v, v_lead, eps):
     return out if np.ndim(out) else float(out)
 
 
+@njit(cache=True)
+def tcp_step(distance, v, speed_floor):  # pragma: no cover - compiled
+    """TCP at one step (:func:`time_to_conflict_point`), for compiled callers; NaN speeds stay
+    NaN, as with np.maximum."""
+    return distance / (v if (v > speed_floor or v != v) else speed_floor)
+
+
 @vectorize(["float64(float64, float64, float64)"], cache=True)
 def _tcp(distance, v, speed_floor):  # pragma: no cover - compiled
-    """TCP at one step (:func:`time_to_conflict_point`); NaN speeds stay NaN, as np.maximum."""
-    return distance / (v if (v > speed_floor or v != v) else speed_floor)
+    return tcp_step(distance, v, speed_floor)
 
 
 def time_to_conflict_point(distance, v, speed_floor=0.1):
@@ -81,13 +92,19 @@ def lateral_ttc(tcp_i, tcp_j):
     return out if out.ndim else float(out)
 
 
-@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def _j_lat(tcp_i, tcp_j, eps, weight):  # pragma: no cover - compiled
-    """J_s-lat at one step times its ``weight`` (:func:`lateral_safety_cost`); 0 where the weight is."""
+@njit(cache=True)
+def j_lat_step(tcp_i, tcp_j, eps, weight):  # pragma: no cover - compiled
+    """J_s-lat at one step times its ``weight`` (:func:`lateral_safety_cost`), for compiled
+    callers; 0 where the weight is."""
     if weight == 0.0:
         return 0.0
     ttc = tcp_i - tcp_j
     return (1.0 / (ttc * ttc + eps)) * weight
+
+
+@vectorize(["float64(float64, float64, float64, float64)"], cache=True)
+def _j_lat(tcp_i, tcp_j, eps, weight):  # pragma: no cover - compiled
+    return j_lat_step(tcp_i, tcp_j, eps, weight)
 
 
 def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):

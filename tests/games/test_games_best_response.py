@@ -132,6 +132,9 @@ def test_gradient_matches_finite_differences(gs, ms, kind):
     # gradient with respect to the other player's plan (Stackelberg pair model)
     gp, gq, Hpp, Hpq, Hqq = obj.pair_model(a, 1, other)
     assert gp == pytest.approx(g, abs=1e-12)
+    # the compiled model (games.convex_model) is the numpy pair model's own block, exactly symmetric
+    assert np.abs(H - Hpp).max() <= 1e-12 * np.abs(Hpp).max() and np.abs(H - obj.Q).max() > 1e-4
+    assert np.array_equal(H, H.T)
 
     def cost_for_other(b):
         obj.set_others([None, Plan.from_accelerations(other.positions[0], other.speeds[0], b, gs.problem.dt)])
