@@ -50,8 +50,11 @@ def j_log_step(gap, v, v_lead, eps):  # pragma: no cover - compiled
 
 
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def _j_log(gap, v, v_lead, eps):  # pragma: no cover - compiled
+def _j_log_dufunc(gap, v, v_lead, eps):  # pragma: no cover - compiled
     return j_log_step(gap, v, v_lead, eps)
+
+
+_j_log = _j_log_dufunc.ufunc  # the plain numpy ufunc, without DUFunc's Python call (~0.8 us)
 
 
 def longitudinal_safety_cost(gap, v, v_lead, eps):
@@ -72,8 +75,11 @@ def tcp_step(distance, v, speed_floor):  # pragma: no cover - compiled
 
 
 @vectorize(["float64(float64, float64, float64)"], cache=True)
-def _tcp(distance, v, speed_floor):  # pragma: no cover - compiled
+def _tcp_dufunc(distance, v, speed_floor):  # pragma: no cover - compiled
     return tcp_step(distance, v, speed_floor)
+
+
+_tcp = _tcp_dufunc.ufunc  # the plain numpy ufunc, without DUFunc's Python call (~0.8 us)
 
 
 def time_to_conflict_point(distance, v, speed_floor=0.1):
@@ -103,8 +109,11 @@ def j_lat_step(tcp_i, tcp_j, eps, weight):  # pragma: no cover - compiled
 
 
 @vectorize(["float64(float64, float64, float64, float64)"], cache=True)
-def _j_lat(tcp_i, tcp_j, eps, weight):  # pragma: no cover - compiled
+def _j_lat_dufunc(tcp_i, tcp_j, eps, weight):  # pragma: no cover - compiled
     return j_lat_step(tcp_i, tcp_j, eps, weight)
+
+
+_j_lat = _j_lat_dufunc.ufunc  # the plain numpy ufunc, without DUFunc's Python call (~0.8 us)
 
 
 def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
