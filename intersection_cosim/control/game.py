@@ -47,6 +47,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+import numpy as np
+
 from intersection_cosim.games import budget_clock
 from intersection_cosim.control.anytime import AnytimeSchedule, step_cutoff
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
@@ -56,13 +58,14 @@ from intersection_cosim.control.game_reuse import GameReuse
 from intersection_cosim.control.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
 from intersection_cosim.control.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.relations import Relations, TriggerHold, step_relations
-from intersection_cosim.control.safety import SafetyFilter
+from intersection_cosim.control.safety import SafetyFilter, occupancy_times
 from intersection_cosim.control.solo import SoloPlanner
 from intersection_cosim.control.pedestrians import pedestrian_holds
 from intersection_cosim.control.speed_limits import lane_speed_holds
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
 from intersection_cosim.games.settings import GameSettings
+from intersection_cosim.games.solo_batch import SMALL_BATCH, solo_responses
 from intersection_cosim.games.qp import reset_workspaces, solve_count
 from intersection_cosim.control.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
@@ -158,12 +161,18 @@ class GameController:
         self._warm_up()
 
     def _warm_up(self) -> None:
-        """Solve one small game before the first step, so that OSQP's workspaces and the lazy
-        imports are built outside the timed control loop (a first step over its budget would
-        make the run depend on the machine's speed)."""
+        """Solve one small game, a batch of solo problems and the filter's occupancy times before
+        the first step, so that OSQP's workspaces, the lazy imports and the compiled kernels
+        (numba loads each from its cache at its first call, some milliseconds) are ready outside
+        the timed control loop (a first step over its budget would make the run depend on the
+        machine's speed)."""
         problem = Problem((Player(0.0, 5.0, 0.5), Player(0.0, 5.0, 0.5)), (Interaction.cross(0, 1, 15.0, 14.0),))
         self.solver.equilibrium(problem, self.solver.settings, self.model)
         nash_equilibrium(Problem((Player(0.0, 5.0, 0.5),)), self.solver.settings, self.model)
+        solo_responses([Problem((Player(0.0, 5.0, 0.5),))] * SMALL_BATCH, self.solver.settings, self.model)
+        occupancy_times(np.array([[0.0, 1.0]]), np.array([2], np.intp), np.array([0.1]), np.zeros(1, np.intp),
+                        np.array([0.5]))
+        Plan.from_accelerations(0.0, 5.0, np.zeros(self.solver.settings.problem.steps), self.solver.settings.problem.dt)
 
     def diagnostics(self) -> Diagnostics:
         return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared, self.pedestrian_holds)

@@ -594,3 +594,51 @@ def test_a_pair_keeps_its_game_while_the_yielder_is_beyond_its_preview(paths, ne
     world = _world(paths, 1.1, [("L", LEFT, t.s_a[p, q] - 15.2, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 17.0, v_slow)])
     d = c.decide(world, time.perf_counter() + 10.0)
     assert d.pairs == ([("L", "S")] if plays else [])
+
+
+_KERNEL_PROBE = """
+import json, sys, time
+import numpy as np
+from intersection_cosim.control.base import ControlContext
+from intersection_cosim.control.game import GameController
+from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.build import build_network
+from intersection_cosim.network.movements import paper_movements
+from intersection_cosim.network.paths import load_paths
+from tests.control.test_relations_vectorised import _random_world
+
+def loaded():
+    out = {}
+    for name, mod in list(sys.modules.items()):
+        if name.startswith("intersection_cosim."):
+            for attr, f in vars(mod).items():
+                if hasattr(f, "py_func") and hasattr(f, "signatures"):
+                    out[name + "." + attr] = len(f.signatures)
+    return out
+
+net = build_network(sys.argv[1])
+c = GameController("nash")
+c.setup(ControlContext(movements=paper_movements(net), model=ModelSettings(), control_period=0.1,
+                       settings=None, etm=True))
+before = loaded()
+for seed in range(3):
+    c.decide(_random_world(load_paths(net), np.random.default_rng(seed), 40), time.perf_counter() + 60.0)
+print(json.dumps([before, loaded()]))
+"""
+
+
+def test_the_compiled_kernels_are_loaded_before_the_first_step(tmp_path):
+    """numba compiles (or loads from its cache) a kernel at its first call, which takes
+    milliseconds to seconds: the controller's setup calls every kernel a step uses, so that no
+    control step pays for it (a fresh process, three dense steps of 40 vehicles)."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run([sys.executable, "-c", _KERNEL_PROBE, str(tmp_path)], cwd=root, capture_output=True,
+                         text=True, check=True)
+    before, after = json.loads(out.stdout.strip().splitlines()[-1])
+    assert sum(n > 0 for n in after.values()) >= 6  # the QP, cost, model, plan and filter kernels ran
+    assert {k: n for k, n in after.items() if n != before.get(k, 0)} == {}
