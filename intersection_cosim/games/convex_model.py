@@ -92,3 +92,18 @@ def convex_model(a, M, offset, Q, b0, k_half, m_dt2, lat_scp, lat_tcp, lat_weigh
         for j in range(i):
             H[i, j] = H[j, i]
     return grad, H
+
+
+@njit(cache=True)
+def solo_convex_models(a, rows, M, offsets, Q, b0, k_half, m_dt2, log_s, log_v, params):  # pragma: no cover - compiled
+    """:func:`convex_model` of row r of ``a`` (k, N) for player ``rows[r]`` of a batch of players
+    without lateral terms (its ``offsets``, ``Q``, ``b0``, one following term ``log_s``,
+    ``log_v`` (m, 1, N), leader's rear inf: none, ``params``): gradients (k, N), Hessians (k, N, N)."""
+    k, n = a.shape
+    none, no_weights = np.empty(0), np.empty((0, n))
+    grads, hessians = np.empty((k, n)), np.empty((k, n, n))
+    for r in range(k):
+        i = rows[r]
+        grads[r], hessians[r] = convex_model(a[r], M, offsets[i], Q[i], b0[i], k_half, m_dt2, none, no_weights,
+                                             no_weights, log_s[i], log_v[i], params[i])
+    return grads, hessians

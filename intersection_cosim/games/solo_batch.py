@@ -4,9 +4,11 @@ A vehicle in no game minimises its own cost against its leader's predicted traje
 Eqs. 15-18 and J_e of Eq. 24 in the running cost of Eqs. 13-14, with the comfort terms of
 :mod:`intersection_cosim.games.objective`). :func:`~intersection_cosim.games.nash.solo_response`
 solves one such problem at a time; most of its time is Python around small numpy calls. Here the
-problems of a control step are stacked: positions, speeds, true costs, gradients, Gauss-Newton
-Hessians, bounds, the line search and the trust-region logic are computed for all vehicles at
-once as (m, N) and (m, N, N) arrays; so are the QPs' exact answers (no bound or only input
+problems of a control step are stacked: true costs, gradients and Gauss-Newton Hessians come from
+the compiled kernels PlayerObjective uses (:mod:`~intersection_cosim.games.true_cost`,
+:mod:`~intersection_cosim.games.convex_model`), one call for all rows with each vehicle's own
+data; bounds, the line search and the trust-region logic are computed for all vehicles at
+once as (m, N) arrays; so are the QPs' exact answers (no bound or only input
 bounds active: one compiled call for all, :meth:`~intersection_cosim.games.qp.QPWorkspace.exact_many`),
 and only the QPs those miss go to OSQP, one call per vehicle (the workspace slot ``("nash", 0)``
 that ``solo_response`` uses; :mod:`intersection_cosim.games.qp`). The SQP is the one of
@@ -24,7 +26,7 @@ Problems that are not a single player without interactions, or whose player cros
 drivers (``Player.crossers``), go to ``solo_response`` one by one. So do the problems of a
 batch smaller than ``SMALL_BATCH``, with ``own_hessian`` (the batch's two differences above):
 the stacked arrays cost a fixed ~0.3 ms a batch, more than they save on a few vehicles
-(``scripts/bench_solo_batch.py``: one by one is faster up to five problems); the answers agree to
+(``scripts/bench_solo_batch.py``: one by one is faster up to four problems, level at five); the answers agree to
 rounding (``tests/games/test_solo_batch.py``). Never raises on numerical
 trouble: a vehicle whose QP or cost fails gets the comfortable-braking plan with status
 "solver failure", and the other vehicles are unaffected.
@@ -33,13 +35,13 @@ trouble: a vehicle whose QP or cost fails gets the comfortable-braking plan with
 from __future__ import annotations
 
 import math
-import threading
 import time
 from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
+from intersection_cosim.games import convex_model, true_cost
 from intersection_cosim.games.dynamics import horizon_matrices, state_offset, stay_behind
 from intersection_cosim.games.nash import WarmStart, failure_result, solo_response, warm_list
 from intersection_cosim.games.objective import comfort_weight, own_limits, quadratic_part
@@ -49,23 +51,7 @@ from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.sqp import new_radius
 from intersection_cosim.models.settings import ModelSettings
 
-_local = threading.local()
-
 SMALL_BATCH = 6  # [-] fewer batchable problems than this are solved one by one (module docstring)
-
-
-def _scratch(name: str, shape: tuple[int, int, int]) -> np.ndarray:
-    """A per-thread work array of ``shape`` for temporaries of :meth:`SoloBatch.model` (never
-    returned to a caller: the next call overwrites it). Reusing it avoids allocating and
-    page-faulting three (m, N, N) arrays per call, which cost more than the arithmetic (m = 45,
-    N = 40: 1.35 -> 0.55 ms a call, bit for bit the same values)."""
-    pool = getattr(_local, "scratch", None)
-    if pool is None:
-        pool = _local.scratch = {}
-    buf = pool.get(name)
-    if buf is None or buf.shape[0] < shape[0] or buf.shape[1:] != shape[1:]:
-        buf = pool[name] = np.empty((max(shape[0], 2 * (0 if buf is None else buf.shape[0])),) + shape[1:])
-    return buf[:shape[0]]
 
 
 def batchable(problem: Problem) -> bool:
@@ -152,6 +138,25 @@ class SoloBatch:
         self._leaders(players)
         self.s_free = self.s0[:, None] + self.v0[:, None] * hm.t  # [m] positions at a = 0
         self.sum_lo, self.sum_hi = -self.v0 / dt, (self.v_cap - self.v0) / dt  # [m/s^2] bounds of cumsum(a)
+        self._kernel_data(players)
+
+    def _kernel_data(self, players) -> None:
+        """The rows' data as games.true_cost and games.convex_model take them: the offsets of the
+        map a -> (v_0..v_N, s_0..s_N) (m, 2N + 2), the one following term (m, 1, N) each and the
+        scalar parameters per row."""
+        n, ms = self.n, self.ms
+        self.offsets = np.empty((self.m, 2 * n + 2))
+        self.offsets[:, :n + 1] = self.v0[:, None]
+        self.offsets[:, n + 1] = self.s0
+        self.offsets[:, n + 2:] = self.s_free
+        self.log_s, self.log_v = self.bound.reshape(self.m, 1, n), self.v_lead.reshape(self.m, 1, n)
+        rows = {"dt": self.dt, "kappa": self.kappa, "k_log": ms.k_log, "k_lat": ms.k_lat, "k_lk": ms.k_lk,
+                "k_e": ms.k_e, "j_lk": np.array([p.j_lk for p in players], float), "v_max": self.v_max,
+                "w_acc": self.w_acc, "jerk_w": self.jerk_w, "eps": ms.eps, "speed_floor": ms.tcp_speed_floor,
+                "clearance": ms.conflict_clearance, "w_lat": self.dt * (1.0 - self.kappa) * ms.k_lat,
+                "w_log": self.w_log, "gap_floor": self.gs.solver.gap_floor}
+        self.cost_params = np.column_stack([np.broadcast_to(rows[k], self.m) for k in true_cost.PARAMS])
+        self.model_params = np.column_stack([np.broadcast_to(rows[k], self.m) for k in convex_model.PARAMS])
 
     def _leaders(self, players) -> None:
         """J_log data: ``lead`` (m,) whether the row follows a leader with J_log weight > 0 (as
@@ -175,47 +180,18 @@ class SoloBatch:
 
     def cost(self, a: np.ndarray, r: np.ndarray) -> np.ndarray:
         """[-] true costs (len(r),) of rows ``r`` (objective.py's C_i with J_log, J_e, J_lk and
-        the comfort terms; Eqs. 13-18, 24)."""
-        ms = self.ms
-        v, s = self._vs(a, r)
-        gap = self.bound[r] - s
-        dv = v - self.v_lead[r]
-        ttc = np.full(gap.shape, np.inf)
-        np.divide(gap, dv, out=ttc, where=dv > 0)
-        np.copyto(ttc, 0.0, where=gap < 0.0)  # overlapping bodies: TTC 0 (models.cost)
-        finite = np.isfinite(ttc) & self.lead[r, None]
-        j_log = np.where(finite, 1.0 / (np.square(np.where(finite, ttc, 0.0)) + ms.eps), 0.0)
-        kappa = self.kappa[r, None]
-        run = (1.0 - kappa) * (ms.k_log * j_log) + self.j_lk_run[r, None] + kappa * (ms.k_e * np.square(v - self.v_max[r, None]))
-        da = a[:, 1:] - a[:, :-1]
-        return self.dt * (run.sum(axis=1) + self.w_acc[r] * (a * a).sum(axis=1) + self.jerk_w * (da * da).sum(axis=1))
+        the comfort terms; Eqs. 13-18, 24; games.true_cost, compiled)."""
+        return true_cost.solo_true_costs(np.ascontiguousarray(a, dtype=float), np.asarray(r, np.intp), self.hm.M,
+                                         self.offsets, self.log_s, self.log_v, self.cost_params)
 
     def model(self, a: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Gradients (len(r), N) and convex Gauss-Newton Hessians (len(r), N, N) of rows ``r``
-        (PlayerObjective.model: J_e and comfort exact, J_log through r = 1 / TTC_log)."""
-        hm, eps = self.hm, self.ms.eps
-        H = np.take(self.Q, r, axis=0)  # a copy: the returned Hessians, which a QP workspace keeps
-        grad = np.einsum("mij,mj->mi", H, a) + self.b0[r]
-        v, s = self._vs(a, r)
-        gap = np.maximum(self.bound[r] - s, self.gs.solver.gap_floor)
-        dv = v - self.v_lead[r]
-        inv_ttc = dv / gap
-        closing = (inv_ttc > 0) & self.lead[r, None]
-        rows = np.nonzero(closing.any(axis=1))[0]
-        if rows.size:
-            g, d, x = gap[rows], dv[rows], inv_ttc[rows]
-            den = 1.0 + eps * x * x
-            w = self.w_log[r[rows], None] * closing[rows]
-            w1 = w * 2.0 * x / (den * den)
-            w2 = w * np.maximum((2.0 - 6.0 * eps * x * x) / (den * den * den), 0.0)
-            shape = (len(rows), self.n, self.n)
-            R = np.multiply((self.dt / g)[:, :, None], hm.Lv, out=_scratch("R", shape))
-            tmp = np.multiply((d / (g * g))[:, :, None], hm.Ls, out=_scratch("tmp", shape))
-            R += tmp
-            grad[rows] += np.einsum("mki,mk->mi", R, w1)
-            RW = np.multiply(R.transpose(0, 2, 1), w2[:, None, :], out=_scratch("RW", shape))
-            H[rows] += np.matmul(RW, R, out=tmp)
-        return grad, H
+        (PlayerObjective.model: J_e and comfort exact, J_log through r = 1 / TTC_log;
+        games.convex_model, compiled)."""
+        hm = self.hm
+        return convex_model.solo_convex_models(np.ascontiguousarray(a, dtype=float), np.asarray(r, np.intp), hm.M,
+                                               self.offsets, self.Q, self.b0, hm.k_half, hm.m_dt2, self.log_s,
+                                               self.log_v, self.model_params)
 
     # ------------------------------------------------------------------ starts
     def start(self, warm: Sequence[Plan | None], r: np.ndarray) -> tuple[np.ndarray, list]:
