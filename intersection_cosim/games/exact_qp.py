@@ -79,7 +79,7 @@ def _gradient(H, x, c):
 
 @njit(cache=True)
 def exact_qp(H, g, a, l, u, row_scale, box_iter):
-    """(status, x, y): the exact solution x [m/s^2] of the QP of module docstring with its row
+    """(status, x, y): the exact solution x [m/s^2] of the module docstring's QP with its row
     multipliers y (2N,), status INTERIOR or BOX; status NOT_FOUND when there is none to be had
     here (``box_iter`` passes of the active set at most; 0: interior answers only)."""
     n = a.shape[0]

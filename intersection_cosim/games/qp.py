@@ -19,9 +19,9 @@ recomputed on every P update). If the new P differs from the slot's current one 
 uses that (still convex) model curvature with the exact gradient.
 
 Interior solutions: before OSQP, the model's unconstrained minimiser a - H^-1 g is computed by a
-Cholesky solve (compiled, :mod:`intersection_cosim.games.exact_qp`, a few microseconds). If it meets every row, it is the QP's exact
-solution (no row active, all multipliers zero) and OSQP is not called; so it is for two thirds
-of the QPs of a congested run. Otherwise OSQP solves the QP as above. The exact answer differs
+Cholesky solve (compiled, :mod:`intersection_cosim.games.exact_qp`, a few microseconds). If it
+meets every row, it is the QP's exact solution (no row active, all multipliers zero) and OSQP is
+not called; so it is for two thirds of the QPs of a congested run. Otherwise OSQP solves the QP as above. The exact answer differs
 from OSQP's by its tolerance (median 5e-5 m/s^2, at most about 1e-3 m/s^2 on recorded games).
 
 Box solutions: when the unconstrained minimiser breaks a row, a primal-dual active-set method over

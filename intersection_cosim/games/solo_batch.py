@@ -7,11 +7,11 @@ solves one such problem at a time; most of its time is Python around small numpy
 problems of a control step are stacked: true costs, gradients and Gauss-Newton Hessians come from
 the compiled kernels PlayerObjective uses (:mod:`~intersection_cosim.games.true_cost`,
 :mod:`~intersection_cosim.games.convex_model`), one call for all rows with each vehicle's own
-data; bounds, the line search and the trust-region logic are computed for all vehicles at
-once as (m, N) arrays; so are the QPs' exact answers (no bound or only input
-bounds active: one compiled call for all, :meth:`~intersection_cosim.games.qp.QPWorkspace.exact_many`),
-and only the QPs those miss go to OSQP, one call per vehicle (the workspace slot ``("nash", 0)``
-that ``solo_response`` uses; :mod:`intersection_cosim.games.qp`). The SQP is the one of
+data; bounds, the line search and the trust-region logic are computed for all vehicles at once
+as (m, N) arrays; so are the QPs' exact answers (no bound or only input bounds active: one
+compiled call for all, :meth:`~intersection_cosim.games.qp.QPWorkspace.exact_many`), and only
+the QPs those miss go to OSQP, one call per vehicle (the workspace slot ``("nash", 0)`` that
+``solo_response`` uses; :mod:`intersection_cosim.games.qp`). The SQP is the one of
 :mod:`intersection_cosim.games.sqp` (model QP in a trust region, Armijo line search on the true
 cost, radius update) and the iteration the one of ``solo_response`` (``nash_max_iter`` SQP
 steps, residual and cost-gain tests of :mod:`intersection_cosim.games.nash`), with two
@@ -26,8 +26,8 @@ Problems that are not a single player without interactions, or whose player cros
 drivers (``Player.crossers``), go to ``solo_response`` one by one. So do the problems of a
 batch smaller than ``SMALL_BATCH``, with ``own_hessian`` (the batch's two differences above):
 the stacked arrays cost a fixed ~0.3 ms a batch, more than they save on a few vehicles
-(``scripts/bench_solo_batch.py``: one by one is faster up to four problems, level at five); the answers agree to
-rounding (``tests/games/test_solo_batch.py``). Never raises on numerical
+(``scripts/bench_solo_batch.py``: one by one is faster up to four problems, level at five); the
+answers agree to rounding (``tests/games/test_solo_batch.py``). Never raises on numerical
 trouble: a vehicle whose QP or cost fails gets the comfortable-braking plan with status
 "solver failure", and the other vehicles are unaffected.
 """
@@ -131,7 +131,6 @@ class SoloBatch:
         self.w_log = dt * (1.0 - self.kappa) * ms.k_log  # [s] weight of J_log per step
         self.w_acc = f([comfort_weight(gs.problem, float(k)) for k in self.kappa])  # [s^4/m^2]
         self.jerk_w = gs.problem.w_jerk / (dt * dt)  # [s^4/m^2]
-        self.j_lk_run = (1.0 - self.kappa) * ms.k_lk * f([p.j_lk for p in players], float)  # [-] per step
         self.Q = np.stack([quadratic_part(n, dt, float(we), float(wa), self.jerk_w)
                            for we, wa in zip(self.w_e, self.w_acc)])
         self.b0 = (2.0 * self.w_e * (self.v0 - self.v_max))[:, None] * hm.dtLv_colsum
