@@ -32,7 +32,8 @@ sets repeat. If the answer then also meets the speed rows (inactive, multipliers
 satisfies the QP's KKT conditions and is its exact solution; otherwise, or after
 ``qp_box_iter`` passes, OSQP solves the QP. In the jam of ``scripts/bench_scale.py`` (80
 vehicles) 86-93 % of the QPs that reached OSQP have such an answer (the trust region binds;
-speed rows rarely), found in one to three passes at about half of OSQP's time.
+speed rows rarely), found in one to three passes; compiled, a box answer takes about 10 us and
+an interior one about 5 us (N = 30), against OSQP's 130-180 us.
 """
 
 from __future__ import annotations
