@@ -425,7 +425,7 @@ def defaults(runs: Runs, cases: list[str]) -> tuple[dict, dict, str]:
     model, tables = s.get("settings", {}).get("model") or {}, s.get("settings", {}).get("controller_settings")
     note = "from summary.json"
     if tables is None:  # the CLI's --controller override leaves it null; the controller uses these
-        from intersection_cosim.control.settings import GameControllerSettings
+        from intersection_cosim.control.game.settings import GameControllerSettings
 
         tables, note = dataclasses.asdict(GameControllerSettings()), "summary.json has null; the defaults"
     solver = {f"{table}.{key}": value for table, fields in tables.items() for key, value in fields.items()}

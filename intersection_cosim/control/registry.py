@@ -15,12 +15,12 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from intersection_cosim.control.base import Controller
-from intersection_cosim.control.fcfs import FcfsController
-from intersection_cosim.control.reservations import FcfsSettings
-from intersection_cosim.control.game import GameController
+from intersection_cosim.control.baselines.fcfs import FcfsController
+from intersection_cosim.control.baselines.reservations import FcfsSettings
+from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.control.per_junction import PerJunction
-from intersection_cosim.control.settings import GameControllerSettings
-from intersection_cosim.control.sumo_baseline import SumoController
+from intersection_cosim.control.game.settings import GameControllerSettings
+from intersection_cosim.control.baselines.sumo_baseline import SumoController
 from intersection_cosim.errors import InputError
 from intersection_cosim.settings import from_table
 

@@ -69,8 +69,8 @@ import numpy as np
 from numba import njit
 
 from intersection_cosim.control.base import Decisions, World
-from intersection_cosim.control.plan_memory import human_forecast
-from intersection_cosim.control.relations import Lateral, Relations, named_pairs
+from intersection_cosim.control.game.plan_memory import human_forecast
+from intersection_cosim.control.game.relations import Lateral, Relations, named_pairs
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings

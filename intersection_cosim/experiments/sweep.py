@@ -43,8 +43,8 @@ from intersection_cosim.scenario import load_scenario
 
 LOCK_FILE = ".sweep.lock"
 MAX_VALUES = 10_000  # [-] values one --kappa spec may expand to
-# The controllers whose decisions use a vehicle's kappa (the game controllers, control/game.py); SUMO's
-# own driver model (sumo, sumo-*) and the FCFS reservation (control/fcfs.py) ignore it.
+# The controllers whose decisions use a vehicle's kappa (the game controllers, control/game/controller.py); SUMO's
+# own driver model (sumo, sumo-*) and the FCFS reservation (control/baselines/fcfs.py) ignore it.
 KAPPA_CONTROLLERS = ("nash", "stackelberg")
 
 

@@ -47,7 +47,7 @@ TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", 
 WALKER_COLUMNS = ["time", "person", "crossing", "position", "direction", "speed", "x", "y"]
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
 GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b", "junction", "solved"]  # time [s] of the step, the pair that
-# played, where, and whether its game was solved (False: it kept its last equilibrium, control/game_reuse.py)
+# played, where, and whether its game was solved (False: it kept its last equilibrium, control/game/game_reuse.py)
 # one row per control step and managed junction (its controller's own record)
 STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves",
                 "junction"]

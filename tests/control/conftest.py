@@ -4,7 +4,7 @@ import pytest
 
 from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext
-from intersection_cosim.control.game import GameController
+from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.models.settings import ModelSettings
 
 

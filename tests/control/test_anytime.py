@@ -4,7 +4,7 @@ import time
 
 import pytest
 
-from intersection_cosim.control.anytime import (DEFER_DECAY, SLOW_SOLVE_FACTOR, SMOOTHING, AnytimeSchedule,
+from intersection_cosim.control.game.anytime import (DEFER_DECAY, SLOW_SOLVE_FACTOR, SMOOTHING, AnytimeSchedule,
                                                 BatchTimeEstimate, GameTimeEstimate, SolveTimeEstimate,
                                                 step_cutoff)
 

@@ -16,8 +16,8 @@ import pytest
 from intersection_cosim.control import registry
 from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext, World
-from intersection_cosim.control.fcfs import FcfsController
-from intersection_cosim.control.reservations import FcfsSettings, free_slot, time_to_cover
+from intersection_cosim.control.baselines.fcfs import FcfsController
+from intersection_cosim.control.baselines.reservations import FcfsSettings, free_slot, time_to_cover
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.models.settings import ModelSettings

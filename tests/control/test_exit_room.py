@@ -8,8 +8,8 @@ import pytest
 
 from intersection_cosim.control.base import ControlContext
 from intersection_cosim.control.exit_room import exit_room_caps
-from intersection_cosim.control.fcfs import FcfsController
-from intersection_cosim.control.reservations import FcfsSettings
+from intersection_cosim.control.baselines.fcfs import FcfsController
+from intersection_cosim.control.baselines.reservations import FcfsSettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.junction_net import load_movements
 

@@ -1,6 +1,6 @@
 """A game in progress runs at most ``PolicySettings.game_max_iter`` equilibrium iterations a
 control step and goes on from its last iterate at the next one (a real-time iteration); a pair's
-first solve is not capped (control/pair_games.py)."""
+first solve is not capped (control/game/pair_games.py)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import time
 import numpy as np
 
 from intersection_cosim.control.base import ControlContext
-from intersection_cosim.control.game import GameController
-from intersection_cosim.control.settings import GameControllerSettings, PolicySettings
+from intersection_cosim.control.game.controller import GameController
+from intersection_cosim.control.game.settings import GameControllerSettings, PolicySettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.movements import paper_movements
 from tests.control.conftest import make_world, record_solves

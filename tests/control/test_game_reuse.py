@@ -1,4 +1,4 @@
-"""A pair's game whose inputs did not change keeps its equilibrium (control/game_reuse.py)."""
+"""A pair's game whose inputs did not change keeps its equilibrium (control/game/game_reuse.py)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control.base import ControlContext
-from intersection_cosim.control.game import GameController
-from intersection_cosim.control.settings import GameControllerSettings, PolicySettings
+from intersection_cosim.control.game.controller import GameController
+from intersection_cosim.control.game.settings import GameControllerSettings, PolicySettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.movements import paper_movements
 from tests.control.conftest import make_world, record_solves
@@ -107,7 +107,7 @@ def test_a_player_off_its_plan_or_a_resolve_period_of_one_solves_every_step(path
 
 
 def test_arrival_is_the_first_plan_time_at_the_point_or_the_horizon_end():
-    from intersection_cosim.control.game_reuse import arrival
+    from intersection_cosim.control.game.game_reuse import arrival
     from intersection_cosim.games.problem import Plan
 
     plan = Plan.from_accelerations(0.0, 10.0, np.zeros(30), 0.1)  # 10 m/s from s = 0 for 3 s

@@ -6,16 +6,17 @@ import time
 import numpy as np
 import pytest
 
-from intersection_cosim.control import solo as solo_module
+from intersection_cosim.control.game import solo as solo_module
 from intersection_cosim.games import solo_batch
 from intersection_cosim.network.movements import paper_movements
 from intersection_cosim.control.base import ControlContext
-from intersection_cosim.control.game import GameController
-from intersection_cosim.control.plan_memory import GameKey, PlanMemory
-from intersection_cosim.control.players import leader_trajectory
-from intersection_cosim.control.relations import step_relations
+from intersection_cosim.control.game.controller import GameController
+from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
+from intersection_cosim.control.game.players import leader_trajectory
+from intersection_cosim.control.game.relations import step_relations
 from intersection_cosim.control.safety import occupancy
-from intersection_cosim.control.settings import GameControllerSettings, PolicySettings, SafetySettings
+from intersection_cosim.control.game.settings import GameControllerSettings, PolicySettings
+from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.models.settings import ModelSettings
 from tests.control.conftest import make_world
 
@@ -600,7 +601,7 @@ _KERNEL_PROBE = """
 import json, sys, time
 import numpy as np
 from intersection_cosim.control.base import ControlContext
-from intersection_cosim.control.game import GameController
+from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.build import build_network
 from intersection_cosim.network.movements import paper_movements

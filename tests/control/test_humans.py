@@ -6,12 +6,13 @@ import time
 import numpy as np
 
 from intersection_cosim.control.base import ControlContext, Decisions
-from intersection_cosim.control.game import GameController
-from intersection_cosim.control.plan_memory import PlanMemory
-from intersection_cosim.control.players import player
-from intersection_cosim.control.relations import step_relations
+from intersection_cosim.control.game.controller import GameController
+from intersection_cosim.control.game.plan_memory import PlanMemory
+from intersection_cosim.control.game.players import player
+from intersection_cosim.control.game.relations import step_relations
 from intersection_cosim.control.safety import SafetyFilter
-from intersection_cosim.control.settings import PolicySettings, SafetySettings
+from intersection_cosim.control.game.settings import PolicySettings
+from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.settings import ModelSettings

@@ -2,8 +2,8 @@
 
 import pytest
 
-from intersection_cosim.control.lane_options import LaneChangeCosts, lane_options
-from intersection_cosim.control.relations import step_relations
+from intersection_cosim.control.game.lane_options import LaneChangeCosts, lane_options
+from intersection_cosim.control.game.relations import step_relations
 from intersection_cosim.games.lane_choice import lane_change_cost
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.spec import IntersectionSpec

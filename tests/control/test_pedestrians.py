@@ -10,7 +10,7 @@ import pytest
 import sumo
 
 from intersection_cosim.control.base import ControlContext, Walker
-from intersection_cosim.control.game import GameController
+from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.control.pedestrians import pedestrian_holds, vehicle_window, walker_window
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.problem import Plan

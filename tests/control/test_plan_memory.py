@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from intersection_cosim.control.plan_memory import GameKey, PlanMemory, SoloKey
+from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory, SoloKey
 from intersection_cosim.games.problem import Plan
 
 DT = 0.1  # [s]

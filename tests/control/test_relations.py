@@ -4,7 +4,7 @@ import dataclasses
 
 import pytest
 
-from intersection_cosim.control.relations import step_relations
+from intersection_cosim.control.game.relations import step_relations
 from intersection_cosim.models.settings import ModelSettings
 from tests.control.conftest import make_world
 

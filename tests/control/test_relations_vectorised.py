@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from intersection_cosim.control.relations import Leader, Lateral, named_pairs, step_relations
+from intersection_cosim.control.game.relations import Leader, Lateral, named_pairs, step_relations
 from intersection_cosim.models.prediction import all_pairs
 from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings

@@ -80,7 +80,7 @@ def test_the_vectorised_first_look_changes_no_decision(paths, net_file, seed, mo
 
     from intersection_cosim.control import safety
     from intersection_cosim.control.base import ControlContext
-    from intersection_cosim.control.game import GameController
+    from intersection_cosim.control.game.controller import GameController
     from intersection_cosim.models.settings import ModelSettings
     from intersection_cosim.network.movements import paper_movements
     from tests.control.test_relations_vectorised import _random_world

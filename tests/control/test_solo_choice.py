@@ -1,9 +1,9 @@
-"""control.solo.cheapest: a solo vehicle's exit lane from its options' solves."""
+"""control.game.solo.cheapest: a solo vehicle's exit lane from its options' solves."""
 
 import numpy as np
 import pytest
 
-from intersection_cosim.control.solo import cheapest
+from intersection_cosim.control.game.solo import cheapest
 from intersection_cosim.games.lane_choice import lane_choice_game
 from intersection_cosim.games.nash import solo_response
 from intersection_cosim.games.problem import GameResult, Player, Problem

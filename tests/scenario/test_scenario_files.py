@@ -56,7 +56,7 @@ def test_case2_start_points_and_v4_in_junction(variant):
 def test_the_game_controllers_tables_set_their_settings():
     """[controller.game], [controller.solver], [controller.policy] and [controller.safety] each
     set their own settings object; the rest keep their defaults."""
-    from intersection_cosim.control.settings import GameControllerSettings
+    from intersection_cosim.control.game.settings import GameControllerSettings
     from intersection_cosim.scenario import scenario_from_dict
 
     data = {"scenario": {"name": "t", "duration": 5.0},
@@ -80,7 +80,7 @@ def test_the_game_controllers_tables_set_their_settings():
 def test_paper_scenarios_run_the_game_unless_told_otherwise(case):
     """`run scenarios/case1_A.toml` and a kappa sweep of it play the paper's game (kappa matters),
     not SUMO's baseline (which ignores kappa)."""
-    from intersection_cosim.control.settings import GameControllerSettings
+    from intersection_cosim.control.game.settings import GameControllerSettings
 
     scn = load_scenario(SCENARIOS / f"{case}.toml")
     assert scn.controller.kind == "nash"

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from intersection_cosim.control.game import GameController
+from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.results.metrics import body_overlaps
 from intersection_cosim.scenario import load_scenario, with_overrides

@@ -199,7 +199,7 @@ def step_relations(world: World, active: set[int], movements: Movements, table: 
                    hold: TriggerHold | None = None) -> Relations:
     """The step's rows, leaders and lateral pairs (ETM on or off). ``events``: vehicle-id pairs
     (sorted) that play their game whatever Gamma_cp says (the safety filter had to hold one of
-    them back for the other: control/game.py); ``hold``: the ETM's hysteresis (:class:`TriggerHold`)."""
+    them back for the other: control/game/controller.py); ``hold``: the ETM's hysteresis (:class:`TriggerHold`)."""
     rows = build_rows(world, active, movements, table, held, lane_choice_range)
     if model.lane_speed_limits:
         rows = dataclasses.replace(rows, speed_cap=lane_speed_caps(world, rows, movements, model))

@@ -18,7 +18,7 @@ import numpy as np
 import sumolib
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.relations import Relations
+from intersection_cosim.control.game.relations import Relations
 from intersection_cosim.games.lane_choice import lane_change_cost
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.movements import Movements

@@ -19,15 +19,15 @@ from typing import NamedTuple
 import numpy as np
 
 from intersection_cosim.games import budget_clock
-from intersection_cosim.control.anytime import BatchTimeEstimate
+from intersection_cosim.control.game.anytime import BatchTimeEstimate
 from intersection_cosim.control.base import World
-from intersection_cosim.control.lane_options import LaneChangeCosts
-from intersection_cosim.control.plan_memory import PlanMemory, SoloKey
-from intersection_cosim.control.players import player, prediction_moved
-from intersection_cosim.control.relations import Relations
+from intersection_cosim.control.game.lane_options import LaneChangeCosts
+from intersection_cosim.control.game.plan_memory import PlanMemory, SoloKey
+from intersection_cosim.control.game.players import player, prediction_moved
+from intersection_cosim.control.game.relations import Relations
 from intersection_cosim.games.solo_batch import solo_responses
 from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
-from intersection_cosim.control.settings import GameControllerSettings
+from intersection_cosim.control.game.settings import GameControllerSettings
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.movements import Movements

@@ -18,8 +18,8 @@ import math
 import numpy as np
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.plan_memory import PlanMemory
-from intersection_cosim.control.relations import Leader, Relations
+from intersection_cosim.control.game.plan_memory import PlanMemory
+from intersection_cosim.control.game.relations import Leader, Relations
 from intersection_cosim.games.problem import Player
 
 FAR = 1.0e4  # [m] added to a leader's predicted position where it no longer constrains its follower

@@ -29,10 +29,10 @@ from typing import Callable, Mapping
 import numpy as np
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.lane_options import LaneChangeCosts
-from intersection_cosim.control.plan_memory import GameKey, PlanMemory
-from intersection_cosim.control.players import player
-from intersection_cosim.control.relations import Relations
+from intersection_cosim.control.game.lane_options import LaneChangeCosts
+from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
+from intersection_cosim.control.game.players import player
+from intersection_cosim.control.game.relations import Relations
 from intersection_cosim.games.lane_choice import lane_choice_game
 from intersection_cosim.games.problem import GameResult, Interaction, Problem
 from intersection_cosim.games.settings import GameSettings

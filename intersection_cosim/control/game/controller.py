@@ -2,18 +2,18 @@
 
 Every control period, for the vehicles that are ready to enter or passing the conflict zone:
 
-1. **Relations** (control/relations.py): each controlled vehicle is expanded into one row per
+1. **Relations** (control/game/relations.py): each controlled vehicle is expanded into one row per
    exit lane it may still choose (Case 2's V3 has two); the ETM
    (:func:`~intersection_cosim.models.risk.event_trigger`, Eqs. 9 and 39) evaluates Gamma_cp for
    every pair of rows of different vehicles whose paths meet. A cross or confluence pair whose
    Gamma_cp exceeds Gamma_sf in any combination of exit lanes plays a game; with the ETM off
    (``--no-etm``) every such pair that has not yet passed its conflict point plays one, every
    step. A leader-follower relation enters the follower's own cost as J_log (Eqs. 15-18)
-   against the leader's predicted trajectory (control/players.py).
-2. **Exit-lane options** (control/lane_options.py): the exit lanes whose choice changes whom a
+   against the leader's predicted trajectory (control/game/players.py).
+2. **Exit-lane options** (control/game/lane_options.py): the exit lanes whose choice changes whom a
    vehicle interacts with.
-3. **Games** (control/pair_games.py): each triggered pair plays its game, most urgent first.
-4. **Alone** (control/solo.py): a vehicle in no game optimises its own cost with k_lat = 0,
+3. **Games** (control/game/pair_games.py): each triggered pair plays its game, most urgent first.
+4. **Alone** (control/game/solo.py): a vehicle in no game optimises its own cost with k_lat = 0,
    re-planning only when an input of its problem moved.
 5. **Several games, one vehicle** (:func:`combine`): the vehicle applies the plan of the game
    whose first acceleration is the lowest, and takes that game's exit lane. Every game's plan
@@ -23,7 +23,7 @@ Every control period, for the vehicles that are ready to enter or passing the co
    gains margin, and one that planned to pass second sees the vehicle's actual, slower progress
    at the next control step, when the pair's game is played again from the measured states.
    The lowest acceleration is one of the games' own plans, bounded by a_min.
-6. **Anytime step** (control/anytime.py): work that would not finish before the budget less
+6. **Anytime step** (control/game/anytime.py): work that would not finish before the budget less
    what the safety filter needs (``anytime_reserve``, or twice its measured time) is deferred
    and its vehicles keep their last plan, shifted.
 7. **Safety filter** (control/safety.py) checks every acceleration, fresh or kept.
@@ -35,7 +35,7 @@ junction). A vehicle that has left the conflict zone is handed back to SUMO's dr
 **Human drivers** (``World.human``) are observed, never players: they get no decision, play no
 game and are never commanded. A human leader enters its AV follower's J_log as a fixed (constant
 speed) trajectory, and a human of a triggered crossing enters the AV's J_lat with its forecast
-fixed (``Player.crossers``, control/players.py); the safety filter guards the crossing, predicting
+fixed (``Player.crossers``, control/game/players.py); the safety filter guards the crossing, predicting
 the human by :func:`~intersection_cosim.models.prediction.human_accelerations`, and never lets
 the AV claim it against the human (control/safety.py).
 """
@@ -50,24 +50,23 @@ from typing import NamedTuple
 import numpy as np
 
 from intersection_cosim.games import budget_clock
-from intersection_cosim.control.anytime import AnytimeSchedule, step_cutoff
+from intersection_cosim.control.game.anytime import AnytimeSchedule, step_cutoff
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
-from intersection_cosim.control.exit_room import exit_room_caps
-from intersection_cosim.control.lane_options import LaneChangeCosts, lane_options
-from intersection_cosim.control.game_reuse import GameReuse
-from intersection_cosim.control.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
-from intersection_cosim.control.plan_memory import GameKey, PlanMemory
-from intersection_cosim.control.relations import Relations, TriggerHold, step_relations
+from intersection_cosim.control.game.lane_options import LaneChangeCosts, lane_options
+from intersection_cosim.control.game.events import in_force, playing
+from intersection_cosim.control.game.game_reuse import GameReuse
+from intersection_cosim.control.game.holds import step_holds
+from intersection_cosim.control.game.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
+from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
+from intersection_cosim.control.game.relations import Relations, TriggerHold, step_relations
 from intersection_cosim.control.safety import SafetyFilter, occupancy_times
-from intersection_cosim.control.solo import SoloPlanner
-from intersection_cosim.control.pedestrians import pedestrian_holds
-from intersection_cosim.control.speed_limits import lane_speed_holds
+from intersection_cosim.control.game.solo import SoloPlanner
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.solo_batch import SMALL_BATCH, solo_responses
 from intersection_cosim.games.qp import reset_workspaces, solve_count
-from intersection_cosim.control.settings import GameControllerSettings
+from intersection_cosim.control.game.settings import GameControllerSettings
 from intersection_cosim.games.stackelberg import stackelberg_equilibrium
 from intersection_cosim.network.conflicts import movement_conflict_table
 from intersection_cosim.network.crossings import crossing_zones, movement_crossings
@@ -246,7 +245,7 @@ class GameController:
         PolicySettings.trigger_hold_gap), as sorted vehicle-id pairs; none when it is off."""
         if not self.settings.policy.trigger_hold_gap > 0:
             return frozenset()
-        return frozenset(self._in_force(world, _playing(world, relations)))
+        return frozenset(self._in_force(world, playing(world, relations)))
 
     def _play_games(self, world: World, relations: Relations, options, cutoff: float,
                     decisions: Decisions) -> dict[int, list[Choice]]:
@@ -279,7 +278,7 @@ class GameController:
 
     def _keep_game(self, world: World, game: PairGame, plans: tuple, choice: tuple, in_game: dict,
                    decisions: Decisions) -> None:
-        """Pair ``game`` keeps its last equilibrium (control/game_reuse.py): counted as a game in
+        """Pair ``game`` keeps its last equilibrium (control/game/game_reuse.py): counted as a game in
         force this step, with no iteration and no convergence record."""
         ids = world.ids
         self.memory.store(GameKey(ids[game.a], ids[game.b], *choice), world.time, plans)
@@ -313,7 +312,7 @@ class GameController:
     def _filter(self, world: World, relations: Relations, decisions: Decisions) -> None:
         if self.settings.safety.safety_filter:
             # the pairs that play their game (none in a fallback step: stale plans)
-            games = frozenset() if decisions.fallback else _playing(world, relations)
+            games = frozenset() if decisions.fallback else playing(world, relations)
             holds, floors = self._holds(world, relations)
             held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
                                      holds, games, floors)
@@ -333,74 +332,15 @@ class GameController:
         return self._in_force(world, self._events)
 
     def _in_force(self, world: World, pairs) -> set[tuple[str, str]]:
-        """``pairs`` (sorted vehicle-id pairs) less those whose two vehicles are both in the junction
-        (the entry queue) with one of them slower than ``SafetySettings.clear_speed`` [m/s], and
-        those with a vehicle the safety filter's last step held at its stop line for a stalled box
-        (``SafetySettings.stalled_box_hold``): it must wait whatever the game says, so the game
-        only cost QPs (in a jam a third of them: 174 a step against 116, 60 s of bench_scale's
-        80-vehicle level, docs/design.md, issue 20 round 9)."""
-        entered, index = self.safety.entered, {vid: k for k, vid in enumerate(world.ids)}
-        slow = self.settings.safety.clear_speed  # [m/s]
-        stall = self.safety.stall_held
-
-        def holds(e: tuple[str, str]) -> bool:
-            if e[0] in stall or e[1] in stall:
-                return False
-            if e[0] not in entered or e[1] not in entered:
-                return True
-            return all(v in index and float(world.v[index[v]]) >= slow for v in e)
-        return {e for e in pairs if holds(e)}
+        """``pairs`` still in force (control/game/events.py, :func:`in_force`)."""
+        return in_force(world, pairs, self.safety.entered, self.safety.stall_held, self.settings.safety.clear_speed)
 
     def _holds(self, world: World, relations: Relations) -> tuple[dict[str, float], dict[str, float]]:
-        """[m/s^2] the caps of the exit-room rule, of the pedestrians at the crossings
-        (control/pedestrians.py) and, with ModelSettings.lane_speed_limits, of the lane speed
-        limits (control/speed_limits.py), the lowest per vehicle; and [m/s^2] the pedestrian caps
-        that are emergency stops (harder than the vehicle's own braking), which the filter applies
-        as they are."""
-        holds = self._exit_holds(world)
-        period = self.ctx.control_period
-        game, zones = self.settings.game, self.crossing_zones if self.settings.safety.yield_to_pedestrians else {}
-
-        def leader_of(k: int, exit_lane: str) -> tuple[float, float] | None:
-            row = relations.row_of.get((k, exit_lane))
-            lead = None if row is None else relations.leaders.get(row)
-            if lead is None:
-                return None
-            rear = float(world.s[lead.vehicle]) + lead.offset - world.length_of(lead.vehicle, self.model.vehicle_length)
-            return rear, float(world.v[lead.vehicle])  # [m] in k's path, [m/s]
-
-        others = [pedestrian_holds(world, self.ctx.movements, zones, self.memory.options, self.memory.plans,
-                                   self.settings.safety, self.model.tcp_speed_floor,
-                                   lambda k: self._limits(world, k), game.comfort_brake, period, leader_of)]
-        self.pedestrian_holds += len(others[0])
-        floors = {}
-        if others[0]:  # the holds harder than the vehicle's own braking: emergency stops
-            index = {vid: k for k, vid in enumerate(world.ids)}
-            floors = {vid: cap for vid, cap in others[0].items() if cap < self._limits(world, index[vid])[0]}
-        if self.model.lane_speed_limits:
-            others.append(lane_speed_holds(world, self.ctx.movements, self.memory.options, self.model.lane_speed_decel,
-                                           period))
-        for caps in others:
-            for vid, cap in caps.items():
-                holds[vid] = min(cap, holds.get(vid, math.inf))
-        return holds, floors
-
-    def _limits(self, world: World, k: int) -> tuple[float, float, float]:
-        """[m/s^2] vehicle k's (hardest braking, strongest acceleration) in the game's bounds, and
-        its hardest emergency braking (its vType's emergencyDecel; no harder than the first where
-        the World carries none)."""
-        game = self.settings.game
-        lo, hi = world.accel_limits(k, game.a_min, game.a_max)
-        return lo, hi, min(lo, world.emergency_brake(k, lo))
-
-    def _exit_holds(self, world: World) -> dict[str, float]:
-        """[m/s^2] caps that keep vehicles whose exit lane is full at their stop lines."""
-        st = self.settings.safety
-        if not st.exit_room:
-            return {}
-        return exit_room_caps(world, self.ctx.movements, self.memory.options, self.model.vehicle_length,
-                              st.exit_min_gap, st.safety_margin, self.settings.game.comfort_brake,
-                              self.settings.game.a_min, self.ctx.control_period, st.clear_speed)
+        """[m/s^2] the caps per vehicle and the emergency-stop floors of this step
+        (control/game/holds.py), counting the pedestrian holds."""
+        step = step_holds(world, relations, self.ctx, self.settings, self.model, self.memory, self.crossing_zones)
+        self.pedestrian_holds += step.pedestrian_holds
+        return step.holds, step.floors
 
     def fallback(self, world: World) -> Decisions:
         """The last applied plan shifted by one period (comfortable braking where there is none),
@@ -436,12 +376,6 @@ class GameController:
         if late is not None:  # the next step starts from decide's late plans
             self.memory.plans.update({vid: plan for vid, plan in late.items() if vid in self.memory.plans})
         return decisions
-
-
-def _playing(world: World, relations: Relations) -> frozenset[tuple[str, str]]:
-    """The vehicle pairs that play their game this step, as sorted vehicle-id pairs."""
-    ids = world.ids
-    return frozenset((min(ids[a], ids[b]), max(ids[a], ids[b])) for a, b in relations.triggered_pairs())
 
 
 def _capped(settings: GameControllerSettings) -> GameSettings | None:

@@ -1,4 +1,4 @@
-"""The reservations of the ``fcfs`` controller (control/fcfs.py): its settings, the time a vehicle
+"""The reservations of the ``fcfs`` controller (control/baselines/fcfs.py): its settings, the time a vehicle
 needs to cover a distance, and the search for the first arrival whose occupancy of the conflict
 points collides with no interval granted before. Pure numpy, no SUMO.
 

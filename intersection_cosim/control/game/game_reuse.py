@@ -1,5 +1,5 @@
 """Games whose inputs did not change keep their equilibrium: the event-triggered re-planning of
-:mod:`intersection_cosim.control.solo`, for pairs.
+:mod:`intersection_cosim.control.game.solo`, for pairs.
 
 A pair's open-loop equilibrium, shifted by one control period, answers the same game seen one
 period later when nothing the game depends on moved: both players are where their plans put them
@@ -28,9 +28,9 @@ from typing import NamedTuple
 import numpy as np
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.plan_memory import GameKey, PlanMemory
-from intersection_cosim.control.players import prediction_moved
-from intersection_cosim.control.settings import PolicySettings
+from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
+from intersection_cosim.control.game.players import prediction_moved
+from intersection_cosim.control.game.settings import PolicySettings
 from intersection_cosim.games.problem import GameResult, Plan, Problem
 
 
