@@ -43,9 +43,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from intersection_cosim.report import figures  # noqa: E402
+from intersection_cosim.report import solver_figures  # noqa: E402
 from intersection_cosim.report.reporting import markdown_table  # noqa: E402
-from intersection_cosim.report.figures import draw_ecdf, trajectory_figure, velocity_figure  # noqa: E402
+from intersection_cosim.report.run_figures import trajectory_figure, velocity_figure  # noqa: E402
+from intersection_cosim.report.solver_figures import draw_ecdf  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ["case1_A", "case1_B", "case1_C", "case1_D", "case2_A", "case2_B"]
@@ -403,7 +404,7 @@ def stopping_rule(runs: Runs, case: str, ctrl: str) -> dict:
 def convergence_figure(runs: Runs, case: str, out_png: Path) -> Path:
     panels = [(f"{case}, {lab}", runs.csv(case, ctrl, "convergence"), stopping_rule(runs, case, ctrl))
               for ctrl, lab in CONTROLLERS.items()]
-    return figures.convergence_figure(panels, out_png, f"{case}: convergence of each pair's longest game "
+    return solver_figures.convergence_figure(panels, out_png, f"{case}: convergence of each pair's longest game "
                                       "(residual = max change of any player's plan between iterations)")
 
 

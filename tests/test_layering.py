@@ -130,7 +130,7 @@ def private_imports(imports: list[Import]) -> list[str]:
 # --- the tests -----------------------------------------------------------------------------------
 
 def test_importing_report_loads_no_experiments_module():
-    code = ("import sys, intersection_cosim.report.reporting, intersection_cosim.report.figures\n"
+    code = ("import sys, intersection_cosim.report.reporting, intersection_cosim.report.compare_figures\n"
             "print(sorted(m for m in sys.modules if m.startswith('intersection_cosim.experiments')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

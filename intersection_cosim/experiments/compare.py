@@ -43,7 +43,7 @@ from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_
                                                   sweep_jobs)
 from intersection_cosim.results.layout import COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
-from intersection_cosim.report.figures import metric_vs_axis, metric_vs_demand
+from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand
 from intersection_cosim.results.sweep_folder import SweepSpec
 from intersection_cosim.scenario import scenario_from_dict
 

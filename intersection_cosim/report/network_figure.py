@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from intersection_cosim.report.figures import DPI  # noqa: E402
+from intersection_cosim.report.figure_style import DPI  # noqa: E402
 
 ROAD = "#b8b8b8"
 

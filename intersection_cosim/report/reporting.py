@@ -22,7 +22,9 @@ import numpy as np
 import pandas as pd
 
 from intersection_cosim.errors import InputError
-from intersection_cosim.report import figures as fig
+from intersection_cosim.report.run_figures import trajectory_figure, velocity_figure
+from intersection_cosim.report.solver_figures import compute_time_histogram
+from intersection_cosim.report.sweep_figures import kappa_heatmap, kappa_lines, kappa_tradeoff, metric_label
 from intersection_cosim.results.layout import (COMPARISON_FILE, PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE,
                                                TRAJECTORIES_FILE, VEHICLES_FILE, run_folder)
 from intersection_cosim.results.sweep_folder import load_spec, sweep_table
@@ -167,19 +169,19 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
     vehicle = tradeoff_vehicle(spec)
     if vehicle is not None and len(ok):
         png = figs / TRADEOFF_PNG.format(vehicle=vehicle)
-        fig.kappa_tradeoff(ok, vehicle, png)
+        kappa_tradeoff(ok, vehicle, png)
         out.append((f"Trade-off: {vehicle}'s travel time against its min TTC and PET, one point per kappa value "
                     "(more aggressive: faster, closer)", str(png.relative_to(folder))))
     for metric in metrics:
         for x, y in itertools.combinations(axes, 2):
             png = figs / f"heatmap_{metric}_{x}_{y}.png"
-            fig.kappa_heatmap(ok, metric, x, y, png)
-            out.append((f"{fig.metric_label(metric)} over {x} and {y}", str(png.relative_to(folder))))
+            kappa_heatmap(ok, metric, x, y, png)
+            out.append((f"{metric_label(metric)} over {x} and {y}", str(png.relative_to(folder))))
     for metric in metrics:
         for axis in axes:
             png = figs / f"lines_{metric}_vs_{axis}.png"
-            fig.kappa_lines(ok, metric, axis, png)
-            out.append((f"{fig.metric_label(metric)} against {axis}", str(png.relative_to(folder))))
+            kappa_lines(ok, metric, axis, png)
+            out.append((f"{metric_label(metric)} against {axis}", str(png.relative_to(folder))))
     samples: dict[str, list[np.ndarray]] = {}
     for _, row in ok.iterrows():
         steps = run_folder(folder, row["run_id"]) / STEPS_FILE
@@ -187,7 +189,7 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
             per_step = pd.read_csv(steps).groupby("time", sort=False)["compute_ms"].sum()  # [ms] over the junctions
             samples.setdefault(row["controller"], []).append(per_step.to_numpy(float))
     png = figs / "compute_time_hist.png"
-    fig.compute_time_histogram({c: np.concatenate(v) for c, v in samples.items()}, png,
+    compute_time_histogram({c: np.concatenate(v) for c, v in samples.items()}, png,
                                title="Controller compute time per step (all finished runs)",
                                budget_ms=_budget(folder, ok))
     out.append(("compute time per control step", str(png.relative_to(folder))))
@@ -262,15 +264,15 @@ def run_report(folder: Path) -> Path:
     summary = json.loads((folder / RUN_MARKER).read_text())
     figs = _fresh_figures(folder)
     title = f"{summary.get('scenario', folder.name)}, {summary.get('controller', '')}, seed {summary.get('seed', '')}"
-    figures = [("trajectories (points every 0.5 s, colour = time)", fig.trajectory_figure(folder, figs / "trajectory.png",
+    figures = [("trajectories (points every 0.5 s, colour = time)", trajectory_figure(folder, figs / "trajectory.png",
                                                                           f"Trajectories: {title}")),
-               ("velocity (entry into and exit from the conflict zone marked)", fig.velocity_figure(folder, figs / "velocity.png", f"Velocity: {title}"))]
+               ("velocity (entry into and exit from the conflict zone marked)", velocity_figure(folder, figs / "velocity.png", f"Velocity: {title}"))]
     step_rows = pd.read_csv(folder / STEPS_FILE)
     # [ms] per control step, summed over the junctions' controllers (steps.csv has one row per junction)
     steps = step_rows.groupby("time", sort=False)["compute_ms"].sum().to_numpy(float)
     budget = summary.get("settings", {}).get("controller", {}).get("budget_ms")
     figures.append(("compute time per control step",
-                    fig.compute_time_histogram({summary.get("controller", "controller"): steps},
+                    compute_time_histogram({summary.get("controller", "controller"): steps},
                                                figs / "compute_time_hist.png", budget_ms=budget)))
     counts = pd.DataFrame([summary.get("counts", {})])
     metrics = pd.DataFrame([summary.get("metrics", {})])

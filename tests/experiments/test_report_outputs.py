@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from intersection_cosim.cli import main
-from intersection_cosim.report import figures
+from intersection_cosim.report import solver_figures, sweep_figures
 from intersection_cosim.report.reporting import best_and_worst
 from sweep_helpers import read_table
 
@@ -97,9 +97,9 @@ def test_best_and_worst():
 
 def test_sweep_figures_with_two_controllers(tmp_path):
     table = _synthetic_table()
-    figures.kappa_heatmap(table, "mean_travel_time", "kappa_V1", "kappa_V2", tmp_path / "h.png")
-    figures.kappa_lines(table, "min_ttc", "kappa_V1", tmp_path / "l.png")
-    figures.compute_time_histogram({"nash": np.array([1.0, 2.0, 50.0]), "sumo": np.array([0.001, 0.002])},
+    sweep_figures.kappa_heatmap(table, "mean_travel_time", "kappa_V1", "kappa_V2", tmp_path / "h.png")
+    sweep_figures.kappa_lines(table, "min_ttc", "kappa_V1", tmp_path / "l.png")
+    solver_figures.compute_time_histogram({"nash": np.array([1.0, 2.0, 50.0]), "sumo": np.array([0.001, 0.002])},
                                    tmp_path / "c.png", budget_ms=100.0)
-    figures.compute_time_histogram({}, tmp_path / "empty.png")
+    solver_figures.compute_time_histogram({}, tmp_path / "empty.png")
     assert all(_is_png(tmp_path / n) for n in ("h.png", "l.png", "c.png", "empty.png"))

@@ -14,7 +14,7 @@ import pytest  # noqa: E402
 from matplotlib.patches import Polygon  # noqa: E402
 
 from intersection_cosim.games.settings import SolverSettings  # noqa: E402
-from intersection_cosim.report import figures  # noqa: E402
+from intersection_cosim.report import run_figures, solver_figures, sweep_figures  # noqa: E402
 
 
 @pytest.fixture(autouse=True)
@@ -40,8 +40,8 @@ VEHICLES = pd.DataFrame({"vehicle": ["V1", "V2", "V3"], "kappa": [0.5, 0.2, 0.8]
 
 def test_trajectories_colour_by_time_and_spread_a_shared_lane():
     fig, ax = plt.subplots()
-    drawn = figures.draw_trajectories(ax, _traj(), VEHICLES)
-    assert figures.shared_lane_offsets(_traj()) == {"V1": -0.7, "V2": 0.0, "V3": 0.7}
+    drawn = run_figures.draw_trajectories(ax, _traj(), VEHICLES)
+    assert run_figures.shared_lane_offsets(_traj()) == {"V1": -0.7, "V2": 0.0, "V3": 0.7}
     assert [len(drawn[v]) for v in ("V1", "V2", "V3")] == [7, 7, 7]  # every 0.5 s over 3 s
     assert drawn["V1"]["time"].tolist() == pytest.approx([0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])
     # eastbound: left is north, so V1 (-0.7 m) is drawn south of the lane centre, V3 north, V2 on it
@@ -57,7 +57,7 @@ def test_trajectories_colour_by_time_and_spread_a_shared_lane():
 
 
 def test_zone_events_are_the_first_passing_and_the_first_outside_after_it():
-    events = figures.zone_events(_traj()).set_index("vehicle")
+    events = run_figures.zone_events(_traj()).set_index("vehicle")
     assert events.loc["V1", ["entry_time", "exit_time"]].tolist() == pytest.approx([1.0, 2.0])
     assert events.loc["V2", "entry_time"] == pytest.approx(1.5) and np.isnan(events.loc["V2", "exit_time"])
     assert events.loc["V2", "entry_speed"] == pytest.approx(3.5)
@@ -65,7 +65,7 @@ def test_zone_events_are_the_first_passing_and_the_first_outside_after_it():
 
 def test_velocity_marks_entry_and_exit_of_the_conflict_zone():
     fig, ax = plt.subplots()
-    figures.draw_velocity(ax, _traj(), VEHICLES)
+    run_figures.draw_velocity(ax, _traj(), VEHICLES)
     marks = {line.get_gid(): (line.get_xdata()[0], line.get_ydata()[0]) for line in ax.lines if line.get_gid()}
     assert marks == {"entry:V1": (1.0, 10.0), "exit:V1": (2.0, 10.0), "entry:V2": (1.5, 3.5),
                      "entry:V3": (1.0, 8.0), "exit:V3": (2.0, 8.0)}
@@ -85,15 +85,15 @@ def _convergence() -> pd.DataFrame:
 def test_convergence_draws_the_tolerance_on_an_axis_that_shows_the_iterations():
     fig, ax = plt.subplots()
     tol = SolverSettings().nash_tol
-    drawn = figures.draw_convergence(ax, _convergence(), tol, guard=0.3, rtol=1e-3)
+    drawn = solver_figures.draw_convergence(ax, _convergence(), tol, guard=0.3, rtol=1e-3)
     assert drawn["V1-V3"]["iteration"].tolist() == [1, 2, 3, 4]  # the longest solve of the pair
-    assert drawn["V1-V2"]["residual"].tolist() == [0.8, figures.RESIDUAL_FLOOR]  # 0 drawn at the floor
+    assert drawn["V1-V2"]["residual"].tolist() == [0.8, solver_figures.RESIDUAL_FLOOR]  # 0 drawn at the floor
     lines = {line.get_gid(): line for line in ax.lines if line.get_gid()}
     assert list(lines["tolerance"].get_ydata()) == [tol, tol] and tol == 1e-2
     assert list(lines["guard"].get_ydata()) == [0.3, 0.3]
     assert ax.get_yscale() == "log"
     lo, hi = ax.get_ylim()
-    assert figures.RESIDUAL_FLOOR / 2 < lo < figures.RESIDUAL_FLOOR and hi == pytest.approx(3.0)
+    assert solver_figures.RESIDUAL_FLOOR / 2 < lo < solver_figures.RESIDUAL_FLOOR and hi == pytest.approx(3.0)
     assert ax.get_xlim() == (0.5, 4.5)
     assert all(float(x).is_integer() for x in ax.get_xticks() if 0.5 <= x <= 4.5)
     assert "max change of any player's plan" in ax.get_ylabel() and "[m/s$^2$]" in ax.get_ylabel()
@@ -102,7 +102,7 @@ def test_convergence_draws_the_tolerance_on_an_axis_that_shows_the_iterations():
 
 def test_ecdf_reaches_one_and_states_median_and_mean():
     fig, ax = plt.subplots()
-    drawn = figures.draw_ecdf(ax, {"ETM": np.array([3.0, 1.0, 2.0]), "no ETM": np.array([0.0, 4.0])},
+    drawn = solver_figures.draw_ecdf(ax, {"ETM": np.array([3.0, 1.0, 2.0]), "no ETM": np.array([0.0, 4.0])},
                               extra={"ETM": "1.00 QPs per step"})
     assert drawn["ETM"].tolist() == [1.0, 2.0, 3.0]
     assert ax.get_xscale() == "log"
@@ -125,7 +125,7 @@ def _sweep_table() -> pd.DataFrame:
 
 def test_kappa_tradeoff_has_one_labelled_point_per_kappa_value():
     fig, axes = plt.subplots(1, 2)
-    points = figures.draw_kappa_tradeoff(axes, _sweep_table(), "V2")
+    points = sweep_figures.draw_kappa_tradeoff(axes, _sweep_table(), "V2")
     assert points["kappa"].tolist() == [0.1, 0.3, 0.5, 0.7, 0.9]
     assert points["travel_time"].tolist() == pytest.approx([12.15 - 2 * k for k in (0.1, 0.3, 0.5, 0.7, 0.9)])
     # V2's own conflicts only (not V1-V3's 0.1 s, not SSM's TTC)
@@ -143,7 +143,7 @@ def test_kappa_values_are_labelled_once_when_two_controllers_share_them():
     one = _sweep_table()
     two = pd.concat([one, one.assign(controller="stackelberg")], ignore_index=True)
     fig, axes = plt.subplots(1, 2)
-    points = figures.draw_kappa_tradeoff(axes, two, "V2")
+    points = sweep_figures.draw_kappa_tradeoff(axes, two, "V2")
     assert len(points) == 10  # five kappa values under each controller
     for ax in axes:
         labels = [t.get_text() for t in ax.texts if t.get_gid() == "kappa-label"]
@@ -164,7 +164,7 @@ def test_kappa_labels_of_points_in_one_place_are_one_range_and_never_overlap(tmp
                      "mean_travel_time": 11.0, "collisions": 0, "status": "ok"})
     table = pd.DataFrame(rows)
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.6), layout="constrained")
-    figures.draw_kappa_tradeoff(axes, table, "V2")
+    sweep_figures.draw_kappa_tradeoff(axes, table, "V2")
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     for ax in axes:
@@ -173,7 +173,7 @@ def test_kappa_labels_of_points_in_one_place_are_one_range_and_never_overlap(tmp
             ["$\\kappa$ 0.7-0.9"]
         boxes = [t.get_window_extent(renderer) for t in texts]
         assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
-    assert figures.kappa_tradeoff(table, "V2", tmp_path / "t.png").stat().st_size > 10_000
+    assert sweep_figures.kappa_tradeoff(table, "V2", tmp_path / "t.png").stat().st_size > 10_000
 
 
 def test_values_of_two_controllers_at_one_kappa_are_written_above_and_below():
@@ -181,7 +181,7 @@ def test_values_of_two_controllers_at_one_kappa_are_written_above_and_below():
     two = pd.concat([one, one.assign(controller="stackelberg", mean_travel_time=one["mean_travel_time"] + 0.05)],
                     ignore_index=True)
     fig, ax = plt.subplots()
-    figures.draw_kappa_lines(ax, two, "mean_travel_time", "kappa_V2")
+    sweep_figures.draw_kappa_lines(ax, two, "mean_travel_time", "kappa_V2")
     labels = [t for t in ax.texts if t.get_gid() == "value-label"]
     assert len(labels) == 10  # five kappa values, two controllers
     for x in (0.1, 0.3, 0.5, 0.7, 0.9):
@@ -192,7 +192,7 @@ def test_values_of_two_controllers_at_one_kappa_are_written_above_and_below():
 def test_a_constant_zero_metric_gets_an_axis_from_zero_with_the_count_shown():
     fig, ax = plt.subplots()
     table = _sweep_table()[lambda d: d["kappa_V2"].isin([0.1, 0.9])]
-    figures.draw_kappa_lines(ax, table, "collisions", "kappa_V2")
+    sweep_figures.draw_kappa_lines(ax, table, "collisions", "kappa_V2")
     lo, hi = ax.get_ylim()
     assert lo < 0 < hi == 1.0 and lo > -0.1
     assert "0 in every run (4 runs)" in [t.get_text() for t in ax.texts]
@@ -220,7 +220,7 @@ def test_a_run_on_a_net_file_is_drawn_around_its_junction_in_the_nets_frame(tmp_
     traj.to_csv(tmp_path / "trajectories.csv", index=False)
     VEHICLES.to_csv(tmp_path / "vehicles.csv", index=False)
     monkeypatch.setattr(plt, "close", lambda *a, **k: None)  # keep the figure to look at it
-    figures.trajectory_figure(tmp_path, tmp_path / "trajectory.png")
+    run_figures.trajectory_figure(tmp_path, tmp_path / "trajectory.png")
     ax = plt.gcf().axes[0]
     assert ax.get_xlim() == pytest.approx((cx - 35.0, cx + 35.0))  # the farthest point 30 m out, + 5 m
     assert ax.get_ylim() == pytest.approx((cy - 35.0, cy + 35.0))
@@ -235,8 +235,8 @@ def test_a_run_on_a_net_file_is_drawn_around_its_junction_in_the_nets_frame(tmp_
 def test_a_large_group_on_common_lanes_is_not_spread_off_its_road():
     rows = [(0.1 * k, f"V{i}", 0.0, 0.0, "west_in_1") for i in range(5) for k in range(3)]
     traj = pd.DataFrame(rows, columns=["time", "vehicle", "x", "y", "lane"])
-    assert set(figures.shared_lane_offsets(traj).values()) == {0.0}  # five: drawn on their path
-    four = figures.shared_lane_offsets(traj[traj["vehicle"] != "V4"])
+    assert set(run_figures.shared_lane_offsets(traj).values()) == {0.0}  # five: drawn on their path
+    four = run_figures.shared_lane_offsets(traj[traj["vehicle"] != "V4"])
     assert sorted(four.values()) == pytest.approx([-2.1, -0.7, 0.7, 2.1])  # four: side by side
 
 
@@ -244,8 +244,8 @@ def test_a_demand_run_gets_no_start_labels_that_would_pile_up():
     rows = [(0.1 * k, f"f.{i}", -30.0 + k, -6.0, 10.0, "ready", "west_in_1") for i in range(13) for k in range(6)]
     traj = pd.DataFrame(rows, columns=["time", "vehicle", "x", "y", "speed", "role", "lane"])
     fig, ax = plt.subplots()
-    figures.draw_trajectories(ax, traj)
+    run_figures.draw_trajectories(ax, traj)
     assert len(ax.texts) == 0 and ax.get_legend() is None  # 13 vehicles from one entry: no ids, no legend
     fig, ax = plt.subplots()
-    figures.draw_trajectories(ax, traj[traj["vehicle"].isin([f"f.{i}" for i in range(12)])])
+    run_figures.draw_trajectories(ax, traj[traj["vehicle"].isin([f"f.{i}" for i in range(12)])])
     assert len(ax.texts) == 12 and ax.get_legend() is not None
