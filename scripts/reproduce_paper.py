@@ -77,7 +77,7 @@ REUSE_VERSIONS = ("intersection_cosim", "sumo")  # a run folder made by other ve
 
 def run_settings(case: str, ctrl: str, etm: bool, budget_ms: float) -> dict:
     """The resolved settings that :func:`play`'s ``run`` command records in summary.json."""
-    from intersection_cosim.experiments.run import resolved_settings
+    from intersection_cosim.experiments.run_tables import resolved_settings
     from intersection_cosim.scenario import load_scenario, with_overrides
 
     scn = with_overrides(load_scenario(ROOT / "scenarios" / f"{case}.toml"), controller=ctrl, budget_ms=budget_ms,
@@ -140,7 +140,7 @@ def play(out: Path, case: str, ctrl: str, etm: bool, budget_ms: float, settings:
 
 
 def play_all(out: Path, cases: list[str], workers: int, budget_ms: float) -> dict[str, str]:
-    from intersection_cosim.experiments.run import versions
+    from intersection_cosim.experiments.run_tables import versions
 
     jobs = [(c, k, e) for c in cases for k in CONTROLLERS for e in (True, False)]
     now = versions()

@@ -171,7 +171,7 @@ class ControlContext:
 
 @dataclass(frozen=True)
 class Diagnostics:
-    """What a controller reports about a run, beyond its Decisions (written by experiments.run).
+    """What a controller reports about a run, beyond its Decisions (written by experiments.run_tables).
 
     ``convergence``: one record per game solved, in solve order, each with ``time`` [s],
     ``vehicle_a``, ``vehicle_b``, ``solver``, ``status`` and ``residuals`` (one per iteration,

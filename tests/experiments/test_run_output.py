@@ -9,7 +9,7 @@ import pytest
 
 from intersection_cosim.cli import main
 from intersection_cosim.errors import InputError
-from intersection_cosim.experiments.run import prepare_output
+from intersection_cosim.experiments.output_folder import prepare_output
 
 CASE1A = str(Path(__file__).resolve().parents[2] / "scenarios" / "case1_A.toml")
 

@@ -1,0 +1,144 @@
+"""A run's result tables (trajectories, steps, games, vehicles, pairs and the rest), built from the
+closed loop's records and SUMO's own outputs and written as CSVs, and its summary.json."""
+
+from __future__ import annotations
+
+import dataclasses
+import platform
+from pathlib import Path
+from typing import Mapping, NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from intersection_cosim import __version__
+from intersection_cosim.control.base import Diagnostics
+from intersection_cosim.experiments.closed_loop import Records, Simulated
+from intersection_cosim.experiments.run_inputs import RunInputs
+from intersection_cosim.network.cache import sumo_version
+from intersection_cosim.network.conflicts import movement_conflicts
+from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
+                                               GAMES_FILE, PAIRS_FILE, SSM_FILE, STEP_COLUMNS, STEPS_FILE,
+                                               TRAJECTORIES_FILE, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
+                                               WALKER_COLUMNS, WALKERS_FILE)
+from intersection_cosim.results.metrics import pair_table, vehicle_table
+from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
+from intersection_cosim.scenario.model import Scenario
+from intersection_cosim.settings import to_dict
+
+
+class RunTables(NamedTuple):
+    """A run's result tables."""
+
+    traj: pd.DataFrame
+    steps: pd.DataFrame
+    tripinfo: pd.DataFrame
+    collisions: pd.DataFrame
+    vehicles: pd.DataFrame
+    pairs: pd.DataFrame
+
+
+def result_tables(scn: Scenario, folder: Path, inputs: RunInputs, simulated: Simulated) -> RunTables:
+    """The run's tables, from the loop's records and the outputs SUMO wrote into ``folder``."""
+    traj = pd.DataFrame(simulated.records.traj_rows, columns=TRAJECTORY_COLUMNS)
+    steps = pd.DataFrame(simulated.records.step_rows, columns=STEP_COLUMNS)
+    tripinfo = read_tripinfo(folder / TRIPINFO_FILE)
+    ssm = read_ssm(folder / SSM_FILE)
+    collisions = read_collisions(folder / COLLISIONS_FILE)
+    vehicles = vehicle_table(_with_movements(simulated.infos, simulated.final_paths, inputs.paths), tripinfo,
+                             simulated.exit_lanes, collisions)
+    touch = max([scn.model.vehicle_width] + [vt.width for vt in scn.vtypes if vt.width is not None])  # [m]
+    pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, touch),
+                       scn.model, ssm, simulated.records.game_steps,
+                       {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()}, simulated.bodies)
+    return RunTables(traj, steps, tripinfo, collisions, vehicles, pairs)
+
+
+def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str, MovementPath]) -> dict:
+    """``infos`` with the approach (edge) and movement of the path each vehicle without a named
+    one took (on a net file vehicles are known by their routes)."""
+    out = {}
+    for vid, info in infos.items():
+        pid = final_paths.get(vid)
+        if not info.approach and pid in paths:
+            info = dataclasses.replace(info, approach=paths[pid].approach, movement=paths[pid].movement)
+        out[vid] = info
+    return out
+
+
+def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics: Diagnostics) -> None:
+    """Write the run's CSVs into ``folder`` (convergence.csv only for a controller that solves games,
+    walkers.csv only for a run with people at its crossings)."""
+    tables.traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
+    if diagnostics.convergence is not None:
+        rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
+                for r in diagnostics.convergence for m, res in enumerate(r.residuals)]
+        pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / CONVERGENCE_FILE, index=False,
+                                                               float_format="%.6g")
+    tables.steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
+    pd.DataFrame(records.game_rows, columns=GAME_COLUMNS).to_csv(folder / GAMES_FILE, index=False, float_format="%.4f")
+    if records.walker_rows:
+        pd.DataFrame(records.walker_rows, columns=WALKER_COLUMNS).to_csv(folder / WALKERS_FILE, index=False,
+                                                                         float_format="%.4f")
+    tables.vehicles.to_csv(folder / VEHICLES_FILE, index=False, float_format="%.4f")
+    tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
+
+
+def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None) -> dict:
+    """The run's summary.json: what ran, with which settings and versions, counts and metrics."""
+    s = scn.scenario
+    tripinfo, collisions, steps = tables.tripinfo, tables.collisions, tables.steps
+    vehicles, pairs = tables.vehicles, tables.pairs
+    step_compute = steps.groupby("time", sort=False)["compute_ms"].sum()  # [ms]
+    summary = {
+        "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
+        "settings": resolved_settings(scn),
+        "versions": versions(),
+        "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
+                   "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
+                   "control_steps": int(steps["time"].nunique()), "junction_steps": int(len(steps)),
+                   "deadline_misses": int(steps["deadline_missed"].sum()),
+                   "fallbacks": int(steps["fallback"].sum()),
+                   "steps_with_deferred_work": int(steps["deferred"].gt(0).sum()),
+                   "safety_interventions": diagnostics.safety_interventions,
+                   "box_rule_clearances": diagnostics.box_rule_clearances,
+                   "pedestrian_collisions": int(collisions["type"].isin(PEDESTRIAN_COLLISIONS).sum()),
+                   "pedestrian_holds": diagnostics.pedestrian_holds},
+        "metrics": {
+            "mean_travel_time": _num(vehicles["travel_time"].mean()),
+            "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,
+            "min_ttc_ssm": _num(pairs["min_ttc_ssm"].min()) if len(pairs) else None,
+            # [ms] per control step, summed over the junctions' controllers
+            "compute_ms_median": _num(step_compute.median()),
+            "compute_ms_p95": _num(step_compute.quantile(0.95)),
+        },
+    }
+    if gui is not None:
+        summary["gui"] = {"simulator": "sumo-gui through TraCI", "delay_ms": gui.delay_ms}
+    return summary
+
+
+def _num(x) -> float | None:
+    return None if x is None or (isinstance(x, float) and np.isnan(x)) else float(x)
+
+
+def resolved_settings(scn: Scenario) -> dict:
+    """The settings a run of ``scn`` records in summary.json's ``settings`` (scenario, network,
+    controller, model and the controller's [controller.*] tables after defaults and overrides):
+    what makes two runs the same run."""
+    return {"scenario": to_dict(scn.scenario), "network": to_dict(scn.network), "human": to_dict(scn.human),
+            "controller": to_dict(scn.controller), "model": to_dict(scn.model), "v2x": to_dict(scn.v2x),
+            "controller_settings": to_dict(scn.controller_settings)
+            if dataclasses.is_dataclass(scn.controller_settings) else None,
+            "vtypes": [to_dict(vt) for vt in scn.vtypes]}
+
+
+def versions() -> dict[str, str]:
+    """The versions a run records in summary.json (this package, SUMO, Python and the numerics)."""
+    import osqp
+    import scipy
+
+    return {"intersection_cosim": __version__, "sumo": sumo_version(), "python": platform.python_version(),
+            "numpy": np.__version__, "scipy": scipy.__version__, "pandas": pd.__version__,
+            "osqp": getattr(osqp, "__version__", "unknown")}
