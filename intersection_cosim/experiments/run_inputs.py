@@ -21,7 +21,8 @@ from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import IntersectionSpec
 from intersection_cosim.network.xml_files import copy_plain
-from intersection_cosim.scenario.load import default_exit_lane, draw_drivers, generate_flow_vehicles
+from intersection_cosim.scenario.draws import draw_drivers, generate_flow_vehicles
+from intersection_cosim.scenario.load import default_exit_lane
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.scenario.network import route_file_persons
 from intersection_cosim.scenario.vtypes import sumo_type

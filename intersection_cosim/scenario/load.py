@@ -11,7 +11,6 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 from intersection_cosim.control import registry
 from intersection_cosim.errors import InputError
@@ -19,15 +18,14 @@ from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.cache import cached_net
 from intersection_cosim.network.path_id import PathId
 from intersection_cosim.network.paths import MovementPath, load_paths
-from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, IntersectionSpec, exit_arm
-from intersection_cosim.scenario.values import number
-from intersection_cosim.scenario.demand import check_generic_spacing, check_vehicle_keys, generic_flow, generic_vehicle
+from intersection_cosim.network.spec import ARMS, LANE_USE, LANES, MOVEMENTS, IntersectionSpec
+from intersection_cosim.scenario.demand import check_generic_spacing, check_vehicle_keys, generic_vehicle
+from intersection_cosim.scenario.flows import any_flow
 from intersection_cosim.scenario.model import (
     DRIVERS,
     ControllerSettings,
     FlowSpec,
     HumanDriverSettings,
-    KappaDistribution,
     NetworkSettings,
     Scenario,
     ScenarioSettings,
@@ -35,6 +33,7 @@ from intersection_cosim.scenario.model import (
     VehicleType,
 )
 from intersection_cosim.scenario.network import net_of, network_settings, route_file_ids
+from intersection_cosim.scenario.values import choice, number, unknown_keys
 from intersection_cosim.scenario.vtypes import referenced, route_file_vtypes, vtypes_of, with_vtype_defaults
 from intersection_cosim.settings import from_table
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
@@ -43,22 +42,7 @@ TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "ve
 CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed", "driver", "vtype")
-FLOW_KEYS = ("id", "approach", "movement", "from", "to", "route", "rate", "kappa", "begin", "end", "lane", "speed",
-             "distance", "av_share", "vtype")
-DRIVER_STREAM = 16  # [-] second word of the seed of the drivers' draw (a stream apart from the arrivals')
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error
-
-
-def _choice(src: str, field: str, value: Any, options: tuple[str, ...]) -> str:
-    if value not in options:
-        raise InputError(src, field, value, f"must be one of {', '.join(options)}")
-    return value
-
-
-def _unknown_keys(src: str, prefix: str, table: dict, known: tuple[str, ...]) -> None:
-    for key in table:
-        if key not in known:
-            raise InputError(src, f"{prefix}.{key}", table[key], f"unknown key (known: {', '.join(known)})")
 
 
 def default_exit_lane(lane: str, movement: str) -> str:
@@ -112,12 +96,7 @@ def _motion(src: str, field: str, table: dict) -> tuple[float, float, float, flo
 
 def driver_of(src: str, field: str, table: dict) -> str:
     """A vehicle table's ``driver``: "av" (default) or "human"."""
-    return _choice(src, f"{field}.driver", table.get("driver", "av"), DRIVERS)
-
-
-def av_share_of(src: str, field: str, table: dict) -> float:
-    """A flow table's ``av_share`` [-] in [0, 1] (default 1: every vehicle an AV)."""
-    return number(src, f"{field}.av_share", table.get("av_share", 1.0), minimum=0.0, maximum=1.0)
+    return choice(src, f"{field}.driver", table.get("driver", "av"), DRIVERS)
 
 
 def _any_vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath], net) -> VehicleSpec:
@@ -137,17 +116,17 @@ def _any_vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath], n
 
 def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> VehicleSpec:
     if isinstance(table, dict):
-        _unknown_keys(src, f"vehicle[{i}]", table, VEHICLE_KEYS)
+        unknown_keys(src, f"vehicle[{i}]", table, VEHICLE_KEYS)
     vid = _vehicle_id(src, i, table)
     field = f"vehicle[{vid}]"
     for key in ("movement", "speed", "kappa"):
         if key not in table:
             raise InputError(src, f"{field}.{key}", None, "is required")
-    movement = _choice(src, f"{field}.movement", table["movement"], MOVEMENTS)
+    movement = choice(src, f"{field}.movement", table["movement"], MOVEMENTS)
     speed, kappa, depart, desired = _motion(src, field, table)
     exit_lane = table.get("exit_lane")
     if exit_lane is not None:
-        _choice(src, f"{field}.exit_lane", exit_lane, LANES)
+        choice(src, f"{field}.exit_lane", exit_lane, LANES)
 
     if "position" in table:
         for key in ("approach", "lane", "distance"):
@@ -158,8 +137,8 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
         for key in ("approach", "lane", "distance"):
             if key not in table:
                 raise InputError(src, f"{field}.{key}", None, "is required when position is not given")
-        approach = _choice(src, f"{field}.approach", table["approach"], ARMS)
-        lane = _choice(src, f"{field}.lane", table["lane"], LANES)
+        approach = choice(src, f"{field}.approach", table["approach"], ARMS)
+        lane = choice(src, f"{field}.lane", table["lane"], LANES)
         if movement not in LANE_USE[lane]:
             raise InputError(src, f"{field}.movement", movement,
                              f"the {lane} lane cannot turn {movement} (it allows {', '.join(LANE_USE[lane])})")
@@ -181,105 +160,6 @@ def _vehicle(src: str, i: int, table: Any, paths: dict[str, MovementPath]) -> Ve
                        path_id=path.id, s0=s0, x=float(x), y=float(y), speed=speed, kappa=kappa,
                        depart=depart, exit_lane=exit_lane, in_junction=bool(s0 > path.s_stop),
                        desired_speed=desired)
-
-
-def _kappa_distribution(src: str, field: str, value: Any) -> KappaDistribution:
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        return KappaDistribution(dist="fixed", value=number(src, field, value, minimum=0.0, maximum=1.0))
-    if not isinstance(value, dict):
-        raise InputError(src, field, value, 'must be a number in [0, 1] or a table like {dist = "uniform", low = 0.2, high = 0.8}')
-    dist = _choice(src, f"{field}.dist", value.get("dist"), ("fixed", "uniform", "normal"))
-    known = {"fixed": ("dist", "value"), "uniform": ("dist", "low", "high"), "normal": ("dist", "mean", "std")}[dist]
-    _unknown_keys(src, field, value, known)
-    nums = {k: number(src, f"{field}.{k}", v, minimum=0.0, maximum=1.0 if k != "std" else None)
-            for k, v in value.items() if k != "dist"}
-    if dist == "uniform" and not nums.get("low", 0.0) <= nums.get("high", 1.0):
-        raise InputError(src, f"{field}.high", nums.get("high"), "must be >= low")
-    return KappaDistribution(dist=dist, **nums)
-
-
-def _paper_movement(src: str, field: str, table: dict) -> tuple[str, str]:
-    """(approach, movement) of a flow on the generated net given by edges: ``from`` / ``to`` or a
-    two-edge ``route``, like "south_in" -> "west_out"."""
-    for key in ("approach", "movement"):
-        if key in table:
-            raise InputError(src, f"{field}.{key}", table[key], "give either approach/movement or from/to/route")
-    if "route" in table:
-        route = table["route"]
-        if not isinstance(route, list) or len(route) != 2:
-            raise InputError(src, f"{field}.route", route, 'must be two edges on the generated net, like '
-                             '["south_in", "west_out"]')
-        start, end, start_field, end_field = route[0], route[1], f"{field}.route[0]", f"{field}.route[1]"
-    else:
-        for key in ("from", "to"):
-            if key not in table:
-                raise InputError(src, f"{field}.{key}", None, "is required (or approach/movement)")
-        start, end, start_field, end_field = table["from"], table["to"], f"{field}.from", f"{field}.to"
-    entries, exits = [f"{arm}_in" for arm in ARMS], [f"{arm}_out" for arm in ARMS]
-    if start not in entries:
-        raise InputError(src, start_field, start, f"is not an entry edge of the generated net ({', '.join(entries)})")
-    if end not in exits:
-        raise InputError(src, end_field, end, f"is not an exit edge of the generated net ({', '.join(exits)})")
-    approach = start[:-len("_in")]
-    for movement in MOVEMENTS:
-        if exit_arm(approach, movement) == end[:-len("_out")]:
-            return approach, movement
-    raise InputError(src, end_field, end, f"no route from {start!r} (the generated net has no U-turns)")
-
-
-def _flow_window(src: str, field: str, table: dict) -> tuple[float, float]:
-    """A flow's (begin, end) [s]."""
-    begin = number(src, f"{field}.begin", table.get("begin", 0.0), minimum=0.0)
-    end = number(src, f"{field}.end", table.get("end", 3600.0), minimum=0.0)
-    if end <= begin:
-        raise InputError(src, f"{field}.end", end, "must be > begin")
-    return begin, end
-
-
-def _any_flow(src: str, i: int, table: Any, net) -> FlowSpec:
-    """A ``[[flow]]`` table: on the generated net (``net`` None) or on a ``[network] file`` net."""
-    if net is None or not isinstance(table, dict):
-        return _flow(src, i, table)
-    field = f"flow[{i}]"
-    if "kappa" not in table:
-        raise InputError(src, f"{field}.kappa", None, "is required")
-    kappa = _kappa_distribution(src, f"{field}.kappa", table["kappa"])
-    spec = generic_flow(src, i, table, net, kappa, _flow_window(src, field, table))
-    return dataclasses.replace(spec, av_share=av_share_of(src, field, table))
-
-
-def _flow(src: str, i: int, table: Any) -> FlowSpec:
-    field = f"flow[{i}]"
-    if not isinstance(table, dict):
-        raise InputError(src, field, table, "must be a table ([[flow]])")
-    _unknown_keys(src, field, table, FLOW_KEYS)
-    by_edges = any(key in table for key in ("from", "to", "route"))
-    for key in ("rate", "kappa") if by_edges else ("approach", "movement", "rate", "kappa"):
-        if key not in table:
-            raise InputError(src, f"{field}.{key}", None, "is required")
-    if by_edges:
-        approach, movement = _paper_movement(src, field, table)
-    else:
-        approach = _choice(src, f"{field}.approach", table["approach"], ARMS)
-        movement = _choice(src, f"{field}.movement", table["movement"], MOVEMENTS)
-    fid = table.get("id", f"{approach}_{movement}_{i}")
-    if not isinstance(fid, str) or not fid or any(ch.isspace() for ch in fid):
-        raise InputError(src, f"{field}.id", fid, "must be a non-empty string without spaces")
-    lane = table.get("lane")
-    if lane is not None:
-        _choice(src, f"{field}.lane", lane, LANES)
-        if movement not in LANE_USE[lane]:
-            raise InputError(src, f"{field}.movement", movement, f"the {lane} lane cannot turn {movement}")
-    begin, end = _flow_window(src, field, table)
-    distance = table.get("distance")
-    return FlowSpec(
-        id=fid, approach=approach, movement=movement,
-        rate=number(src, f"{field}.rate", table["rate"], minimum=0.0),
-        kappa=_kappa_distribution(src, f"{field}.kappa", table["kappa"]),
-        begin=begin, end=end, lane=lane,
-        speed=number(src, f"{field}.speed", table.get("speed", 10.0), minimum=0.0),
-        distance=None if distance is None else number(src, f"{field}.distance", distance, minimum=0.0),
-        av_share=av_share_of(src, field, table))
 
 
 def _check_spacing(src: str, vehicles: list[VehicleSpec], paths: dict[str, MovementPath],
@@ -410,7 +290,7 @@ def _demand(src: str, data: dict[str, Any], scen: ScenarioSettings, model: Model
     raw_flows = data.get("flow", [])
     if not isinstance(raw_flows, list):
         raise InputError(src, "flow", raw_flows, "must be an array of tables ([[flow]])")
-    flows = [_typed(src, f"flow[{i}]", t, vtypes, True, lambda t, i=i: _any_flow(src, i, t, net))
+    flows = [_typed(src, f"flow[{i}]", t, vtypes, True, lambda t, i=i: any_flow(src, i, t, net))
              for i, t in enumerate(raw_flows)]
     fids: set[str] = set()
     for f in flows:
@@ -455,64 +335,3 @@ def with_overrides(scn: Scenario, *, controller: str | None = None, seed: int | 
             raise InputError("--seed", "seed", seed, "must be >= 0")
         scen = dataclasses.replace(scen, seed=seed)
     return dataclasses.replace(scn, controller=ctrl, scenario=scen)
-
-
-def _draw_kappa(kd: KappaDistribution, rng: np.random.Generator) -> float:
-    """One vehicle's kappa [-] from ``kd`` (one rng draw unless fixed), clipped to [0, 1]."""
-    if kd.dist == "uniform":
-        kappa = rng.uniform(kd.low, kd.high)
-    elif kd.dist == "normal":
-        kappa = rng.normal(kd.mean, kd.std)
-    else:
-        kappa = kd.value
-    return float(np.clip(kappa, 0.0, 1.0))
-
-
-def _flow_arrival(flow: FlowSpec, k: int, t: float, kappa: float, rng: np.random.Generator) -> dict:
-    """The k-th vehicle of ``flow``, departing at ``t`` [s]; a paper flow draws its lane from ``rng``."""
-    common = {"id": f"{flow.id}.{k}", "flow": flow.id, "approach": flow.approach, "movement": flow.movement,
-              "depart": round(float(t), 2), "kappa": kappa, "distance": flow.distance, "vtype": flow.vtype}
-    if flow.route is not None:
-        return {**common, "lane": "", "route": flow.route, "depart_lane": flow.depart_lane,
-                "speed": flow.depart_speed, "depart_pos": flow.depart_pos}
-    lanes = [flow.lane] if flow.lane else [ln for ln in LANES if flow.movement in LANE_USE[ln]]
-    return {**common, "lane": lanes[int(rng.integers(len(lanes)))], "speed": flow.speed, "route": None}
-
-
-def generate_flow_vehicles(scn: Scenario, rng: np.random.Generator) -> list[dict]:
-    """Poisson arrivals of every flow, drawn with ``rng`` (seeded from the scenario's seed).
-
-    Returns one dict per vehicle, sorted by (depart, id): id, flow (its flow's id), approach, lane,
-    movement, depart [s], kappa, speed [m/s], distance [m] to the stop line (None = start of the
-    arm) and route (None). A flow on a ``[network] file`` net (``route`` not None) gives
-    approach, movement and lane "", route (tuple of edge ids), depart_lane ("best" or an index as
-    str), speed (SUMO's departSpeed, "max" or a number as str) and depart_pos [m] (None = "base").
-    Per vehicle the draws are: headway, kappa (unless fixed), lane (paper flows only).
-    """
-    out: list[dict] = []
-    for flow in scn.flows:
-        if flow.rate <= 0:
-            continue
-        mean_headway = 3600.0 / flow.rate  # [s]
-        t = flow.begin + rng.exponential(mean_headway)
-        k = 0
-        while t < min(flow.end, scn.scenario.duration):
-            kappa = _draw_kappa(flow.kappa, rng)
-            out.append(_flow_arrival(flow, k, t, kappa, rng))
-            k += 1
-            t += rng.exponential(mean_headway)
-    out.sort(key=lambda d: (d["depart"], d["id"]))
-    return out
-
-
-def draw_drivers(scn: Scenario, flow_vehicles: list[dict]) -> list[dict]:
-    """``flow_vehicles`` with each one's ``driver``: "av" with its flow's ``av_share``, else "human".
-
-    One uniform draw per vehicle, in the order of ``flow_vehicles``, from a stream of its own
-    (seeded with the scenario's seed and :data:`DRIVER_STREAM`): the arrivals, lanes and kappas do
-    not depend on ``av_share``, and a vehicle that is human at one share is human at every lower
-    share (the humans of 0.9 are among those of 0.5).
-    """
-    share = {f.id: f.av_share for f in scn.flows}
-    u = np.random.default_rng((scn.scenario.seed, DRIVER_STREAM)).random(len(flow_vehicles))
-    return [{**fv, "driver": "av" if u[n] < share[fv["flow"]] else "human"} for n, fv in enumerate(flow_vehicles)]

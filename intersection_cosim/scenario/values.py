@@ -19,3 +19,15 @@ def number(src: str, field: str, value: Any, *, minimum: float | None = None,
     if maximum is not None and value > maximum:
         raise InputError(src, field, value, f"must be <= {maximum:g}")
     return float(value)
+
+
+def choice(src: str, field: str, value: Any, options: tuple[str, ...]) -> str:
+    if value not in options:
+        raise InputError(src, field, value, f"must be one of {', '.join(options)}")
+    return value
+
+
+def unknown_keys(src: str, prefix: str, table: dict, known: tuple[str, ...]) -> None:
+    for key in table:
+        if key not in known:
+            raise InputError(src, f"{prefix}.{key}", table[key], f"unknown key (known: {', '.join(known)})")

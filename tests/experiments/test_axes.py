@@ -27,7 +27,7 @@ def test_every_axis_names_its_flag_and_field():
 def test_av_share_axis_sets_every_flow_and_humans_appear_by_seed(tmp_path):
     from pathlib import Path
 
-    from intersection_cosim.scenario.load import draw_drivers, generate_flow_vehicles
+    from intersection_cosim.scenario.draws import draw_drivers, generate_flow_vehicles
 
     demand = Path(__file__).resolve().parents[2] / "scenarios" / "demand_balanced_medium.toml"
     spec = make_spec(demand, None, "nash", "1", axes={"av_share": "0,0.5,1"})

@@ -15,7 +15,7 @@ from intersection_cosim.experiments.files import ROUTE_FILE, route_files, write_
 from intersection_cosim.network.build import build_network
 from intersection_cosim.network.paths import load_paths
 from intersection_cosim.scenario import load_scenario
-from intersection_cosim.scenario.load import generate_flow_vehicles
+from intersection_cosim.scenario.draws import generate_flow_vehicles
 
 SUMO_BIN = os.path.join(str(sumo.SUMO_HOME), "bin", "sumo")
 CROSS = Path(sumo.SUMO_HOME) / "tools/game/cross/cross.net.xml"

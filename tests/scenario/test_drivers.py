@@ -5,7 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from intersection_cosim.scenario.load import draw_drivers, generate_flow_vehicles, load_scenario
+from intersection_cosim.scenario.draws import draw_drivers, generate_flow_vehicles
+from intersection_cosim.scenario.load import load_scenario
 
 SCENARIO = "scenarios/demand_balanced_medium.toml"
 

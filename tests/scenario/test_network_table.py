@@ -9,7 +9,7 @@ import pytest
 import sumo
 
 from intersection_cosim.scenario import load_scenario, scenario_from_dict
-from intersection_cosim.scenario.load import generate_flow_vehicles
+from intersection_cosim.scenario.draws import generate_flow_vehicles
 from intersection_cosim.scenario.model import NetworkSettings
 from intersection_cosim.settings import to_dict
 

@@ -9,7 +9,8 @@ import pytest
 
 from intersection_cosim.experiments.files import write_routes
 from intersection_cosim.network.paths import load_paths
-from intersection_cosim.scenario.load import draw_drivers, generate_flow_vehicles, load_scenario
+from intersection_cosim.scenario.draws import draw_drivers, generate_flow_vehicles
+from intersection_cosim.scenario.load import load_scenario
 
 TEXT = """
 [scenario]
