@@ -13,9 +13,11 @@ true cost that no smooth model sees: the equilibrium checks find their largest g
 clearing the point one step earlier). J_log counts for the follower of a following pair only.
 J_lk is the constant ``Player.j_lk`` of the player's discrete lane choice. Each J_lat term with
 another player is weighted by the risk that partner poses, exp(k_lat_partner (kappa_q - 0.5))
-(:func:`partner_risk_weight`; 1 for a partner at kappa 0.5 and for a human driver), times player
-i's own factor exp(-k_lat_own (kappa_i - 0.5)) (:func:`own_risk_weight`), and never below 1
-(:func:`lateral_risk_weight`: no player takes a crossing less seriously than Eq. 19 does).
+(:func:`~intersection_cosim.games.weights.partner_risk_weight`; 1 for a partner at kappa 0.5 and
+for a human driver), times player i's own factor exp(-k_lat_own (kappa_i - 0.5))
+(:func:`~intersection_cosim.games.weights.own_risk_weight`), and never below 1
+(:func:`~intersection_cosim.games.weights.lateral_risk_weight`: no player takes a crossing less
+seriously than Eq. 19 does).
 
 Convex model (the "convexification" of the SQP): J_e and the comfort terms are quadratic in a
 (speeds are affine in a) and enter exactly. J_lat (Eq. 19) and J_log (Eq. 15) are a scalar
@@ -34,8 +36,6 @@ search of the best response make up for what it ignores.
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import math
 
 import numpy as np
@@ -45,6 +45,7 @@ from intersection_cosim.games.problem import Plan, Player, Problem, speed_cap
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games import convex_model as cm
 from intersection_cosim.games.true_cost import PARAMS, true_costs
+from intersection_cosim.games.weights import comfort_weight, lateral_risk_weight, own_limits, quadratic_part
 from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
 
@@ -55,61 +56,6 @@ EXOGENOUS = -1  # "other player" index of a non-player leader (Player.leader) in
 def _rcumsum(x: np.ndarray) -> np.ndarray:
     """Reverse cumulative sum: out[m] = sum_{k >= m} x[k]."""
     return x[::-1].cumsum()[::-1]
-
-
-def partner_risk_weight(kappa_partner: float, ms: ModelSettings) -> float:
-    """[-] weight of a player's J_lat term (Eq. 19) with a partner of aggressiveness
-    ``kappa_partner``: exp(k_lat_partner (kappa_partner - 0.5)), 1 for a partner at 0.5. The
-    risk a vehicle poses grows with its aggressiveness, as its potential field's amplitude a^q =
-    a_0 exp(kappa^q) does (Eq. 7); ``ModelSettings.k_lat_partner`` = 1 is that factor itself."""
-    return math.exp(ms.k_lat_partner * (kappa_partner - 0.5))
-
-
-def own_risk_weight(kappa_own: float, ms: ModelSettings) -> float:
-    """[-] factor of every J_lat term (Eq. 19) of a player of aggressiveness ``kappa_own``:
-    exp(-k_lat_own (kappa_own - 0.5)), 1 at 0.5: a cautious player heightens the risk it takes;
-    ``ModelSettings.k_lat_own`` = 1 is Eq. 7's factor of its own field, a^p = a_0 exp(kappa^p),
-    so with k_lat_partner = 1 too a term weighs the partner's field against the player's own."""
-    return math.exp(-ms.k_lat_own * (kappa_own - 0.5))
-
-
-def lateral_risk_weight(kappa_own: float, kappa_partner: float, ms: ModelSettings) -> float:
-    """[-] weight of a player's J_lat term (Eq. 19) with a partner: the partner's risk times the
-    player's own factor (:func:`partner_risk_weight`, :func:`own_risk_weight`), at least 1. The
-    floor keeps an aggressive player, or one facing a cautious partner, from caring less about a
-    crossing than Eq. 19 does: without it the safety filter stepped in 31 % more often at 1800
-    veh/h than before the two factors (13 009 against 9 930 interventions) and one run of 60
-    locked (docs/design.md, issue 20 round 7)."""
-    return max(1.0, partner_risk_weight(kappa_partner, ms) * own_risk_weight(kappa_own, ms))
-
-
-@functools.lru_cache(maxsize=256)
-def comfort_weight(problem, kappa: float) -> float:
-    """[s^4/m^2] a player's weight of the squared acceleration, by its aggressiveness ``kappa``
-    (``ProblemSettings.w_accel`` at kappa = 0.5, falling by ``w_accel_kappa`` per unit of kappa,
-    never below ``w_accel_floor`` nor raised by it above ``w_accel``)."""
-    floor = min(problem.w_accel_floor, problem.w_accel)  # [s^4/m^2]
-    return max(floor, problem.w_accel + problem.w_accel_kappa * (0.5 - kappa))
-
-
-@functools.lru_cache(maxsize=1024)  # one entry per kappa in play: built once per vehicle, not per solve
-def quadratic_part(n: int, dt: float, w_e: float, w_accel: float, jerk_w: float) -> np.ndarray:
-    """Hessian of the exact quadratic terms: sum w_e (v - v_max)^2 + dt w_accel a^2 + dt jerk_w da^2
-    (read-only)."""
-    hm = horizon_matrices(n, dt)
-    Q = (2.0 * w_e * dt * dt) * hm.LtL + (2.0 * dt * w_accel) * hm.eye + (2.0 * dt * jerk_w) * hm.DtD
-    Q.setflags(write=False)
-    return Q
-
-
-def own_limits(gs: GameSettings, pl: Player) -> GameSettings:
-    """``gs`` with [a_min, a_max] narrowed to player ``pl``'s own limits (its vType's decel and
-    accel, :attr:`Player.a_min` / :attr:`Player.a_max`); ``gs`` itself when they do not narrow it."""
-    lo = gs.problem.a_min if pl.a_min is None else max(gs.problem.a_min, float(pl.a_min))  # [m/s^2]
-    hi = gs.problem.a_max if pl.a_max is None else min(gs.problem.a_max, float(pl.a_max))  # [m/s^2]
-    if lo == gs.problem.a_min and hi == gs.problem.a_max:
-        return gs
-    return dataclasses.replace(gs, problem=dataclasses.replace(gs.problem, a_min=lo, a_max=hi))
 
 
 def _length(length: float | None, ms: ModelSettings) -> float:

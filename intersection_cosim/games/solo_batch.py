@@ -44,7 +44,7 @@ import numpy as np
 from intersection_cosim.games import convex_model, true_cost
 from intersection_cosim.games.dynamics import horizon_matrices, state_offset, stay_behind
 from intersection_cosim.games.nash import WarmStart, failure_result, solo_response, warm_list
-from intersection_cosim.games.objective import comfort_weight, own_limits, quadratic_part
+from intersection_cosim.games.weights import comfort_weight, own_limits, quadratic_part
 from intersection_cosim.games.problem import GameResult, Plan, Problem, project_accelerations, speed_cap
 from intersection_cosim.games.qp import workspace
 from intersection_cosim.games.settings import GameSettings

@@ -122,7 +122,7 @@ def lateral_safety_cost(tcp_i, tcp_j, eps, active=True):
     ``active`` is False once either vehicle has passed the conflict point: the pair then has no
     lateral cost (the paper is silent on a passed point; our reading). A float array ``active``
     is a weight per step (0 where not active) that multiplies the cost: the term's risk
-    weight of ``games.objective.lateral_risk_weight``.
+    weight of ``games.weights.lateral_risk_weight``.
     """
     out = _j_lat(tcp_i, tcp_j, eps, active)
     return out if np.ndim(out) else float(out)

@@ -24,7 +24,7 @@ import numpy as np
 import sumolib
 from scipy.spatial import cKDTree
 
-from intersection_cosim.network.conflicts import area_zone
+from intersection_cosim.network.conflict_zones import area_zone
 from intersection_cosim.network.movements import Movements
 from intersection_cosim.network.paths import MovementPath
 

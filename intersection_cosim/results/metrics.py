@@ -12,7 +12,7 @@ import pandas as pd
 
 from intersection_cosim.models.cost import lateral_ttc, longitudinal_ttc, time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
-from intersection_cosim.network.conflicts import conflict_zone, point_zone, swept_area
+from intersection_cosim.network.conflict_zones import conflict_zone, point_zone, swept_area
 from intersection_cosim.network.paths import MovementPath
 
 VEHICLE_COLUMNS = ["vehicle", "approach", "movement", "kappa", "depart", "arrival", "travel_time",
@@ -113,7 +113,7 @@ def post_encroachment_time(a: pd.DataFrame, b: pd.DataFrame, zone_a: tuple[float
 
     ``a``, ``b``: each vehicle's own trajectory (index time [s], column ``s`` [m] front arc
     length); ``zone_a`` / ``zone_b`` [m]: the front arc lengths between which each body overlaps
-    the other's swept area (:func:`network.conflicts.conflict_zone`), so the front at
+    the other's swept area (:func:`network.conflict_zones.conflict_zone`), so the front at
     ``zone_out`` is the rear leaving it. Zero when the two were in the zone at once; NaN when a
     vehicle's entry or exit was not recorded.
     """

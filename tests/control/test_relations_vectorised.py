@@ -10,7 +10,8 @@ from intersection_cosim.control.game.relations import Leader, Lateral, named_pai
 from intersection_cosim.models.prediction import all_pairs
 from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings
-from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, point_zone
+from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING
+from intersection_cosim.network.conflict_zones import point_zone
 from tests.control.conftest import make_world
 
 MODEL = ModelSettings()

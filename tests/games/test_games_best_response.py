@@ -15,7 +15,8 @@ from intersection_cosim.games import (GameSettings, Interaction, Plan, Player, P
 from intersection_cosim.games.settings import ProblemSettings, SolverSettings
 from intersection_cosim.games.sqp import sqp_best_response
 from intersection_cosim.games.dynamics import rollout
-from intersection_cosim.games.objective import PlayerObjective, comfort_weight
+from intersection_cosim.games.objective import PlayerObjective
+from intersection_cosim.games.weights import comfort_weight
 from intersection_cosim.games.problem import project_accelerations
 from intersection_cosim.games.qp import QPWorkspace, workspace
 from intersection_cosim.models.cost import (efficiency_cost, lateral_safety_cost, running_cost,

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from intersection_cosim.games import GameSettings, Interaction, Plan, Player, Problem, best_response
-from intersection_cosim.games.objective import PlayerObjective, comfort_weight
+from intersection_cosim.games.objective import PlayerObjective
+from intersection_cosim.games.weights import comfort_weight
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.settings import ModelSettings
 

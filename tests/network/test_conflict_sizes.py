@@ -52,7 +52,8 @@ def test_other_bodies_zones_match_the_full_scan(conflict_table, paths):
     cross pair it finds the full scan's zone to within one 0.25 m front step."""
     import numpy as np
 
-    from intersection_cosim.network.conflicts import KIND_CODE, conflict_zone, swept_area
+    from intersection_cosim.network.conflicts import KIND_CODE
+    from intersection_cosim.network.conflict_zones import conflict_zone, swept_area
 
     cross = np.argwhere(conflict_table.kind == KIND_CODE["cross"])
     assert len(cross) > 100

@@ -20,8 +20,8 @@ from intersection_cosim.control.base import World
 from intersection_cosim.models.prediction import all_pairs
 from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings
-from intersection_cosim.network.conflicts import (KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, ConflictTable,
-                                                  point_zone)
+from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, ConflictTable
+from intersection_cosim.network.conflict_zones import point_zone
 from intersection_cosim.network.movements import Movements
 
 
