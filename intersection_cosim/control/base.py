@@ -128,6 +128,9 @@ class Decisions:
     accel: dict[str, float] = field(default_factory=dict)  # [m/s^2] per controlled vehicle
     exit_lane: dict[str, str] = field(default_factory=dict)  # chosen exit lane per vehicle
     release: list[str] = field(default_factory=list)  # vehicles handed back to SUMO's driver model
+    owner: dict[str, str] = field(default_factory=dict)  # per vehicle of ``accel`` and ``release``, the managed
+    #   junction whose controller decided it (control/per_junction.py): the simulator adapter takes a
+    #   command only while the vehicle is on that junction's paths (empty: the run's one junction)
     games: int = 0  # games played this step
     iterations: int = 0  # equilibrium iterations (summed over games)
     pairs: list[tuple[str, str]] = field(default_factory=list)  # pairs that played a game

@@ -27,9 +27,12 @@ def sub_world(world: World, keep: list[int]) -> World:
 
 
 def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> Decisions:
-    """The Decisions of every junction as one: a vehicle one junction releases because it is now
-    on another junction's path (in that junction's sub-World) is not released. One junction's
-    Decisions are returned as they are."""
+    """The Decisions of every junction as one, each vehicle's ``owner`` the junction that decided
+    it: a vehicle one junction releases because it is now on another junction's path (in that
+    junction's sub-World) is not released. One junction's Decisions are returned as they are
+    (with their owner filled in)."""
+    for j, d in parts.items():
+        d.owner.update({vid: j for vid in (*d.accel, *d.release)})
     if len(parts) == 1:
         return next(iter(parts.values()))
     merged = Decisions()
@@ -39,6 +42,8 @@ def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> De
         merged.accel.update(d.accel)
         merged.exit_lane.update(d.exit_lane)
         merged.release.extend(vid for vid in d.release if owner.get(vid, j) == j)
+        merged.owner.update({vid: j for vid in d.accel})
+        merged.owner.update({vid: j for vid in d.release if owner.get(vid, j) == j})
         merged.games += d.games
         merged.iterations += d.iterations
         merged.pairs.extend(d.pairs)

@@ -82,7 +82,7 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
         crossings=movement_crossings(inputs.movements), people_first=controller.controls_vehicles)
     sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,
                          exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO,
-                         **generic)
+                         onboard=scn.controller.onboard if controller.controls_vehicles else None, **generic)
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
         # the command line (the config's go to replay/)

@@ -14,6 +14,7 @@ from intersection_cosim.models.cost import lateral_ttc, longitudinal_ttc, time_t
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflict_zones import conflict_zone, point_zone, swept_area
 from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.results.overlaps import overlapping_pairs
 
 VEHICLE_COLUMNS = ["vehicle", "approach", "movement", "kappa", "depart", "arrival", "travel_time",
                    "time_loss", "exit_lane", "collided", "driver", "vtype"]
@@ -240,30 +241,16 @@ def _zone(paths: dict[str, MovementPath], pid: str | None) -> tuple[float, float
 
 
 def body_overlaps(traj: pd.DataFrame, length: float, width: float) -> list[tuple[float, str, str]]:
-    """(time, vehicle, vehicle) of every recorded pair of overlapping vehicle bodies.
-
-    An independent check next to SUMO's collision output: each body is the rectangle ``length``
-    x ``width`` [m] behind the recorded front-bumper position along the heading; two rectangles
-    overlap unless one of their edge normals separates them (separating axis theorem).
-    Vectorised over the pairs present at each recorded time.
-    """
+    """(time, vehicle, vehicle) of every recorded pair of overlapping vehicle bodies (each
+    ``length`` x ``width`` [m] behind its recorded front bumper, :mod:`~intersection_cosim.results.overlaps`):
+    an independent check next to SUMO's collision output."""
     out = []
     for tm, g in traj.groupby("time", sort=True):
         if len(g) < 2:
             continue
-        h = g["heading"].to_numpy()
-        d = np.stack([np.cos(h), np.sin(h)], axis=1)  # (n, 2) driving direction
-        nrm = np.stack([-d[:, 1], d[:, 0]], axis=1)
-        front = g[["x", "y"]].to_numpy()
-        rear = front - length * d
-        half = (width / 2) * nrm
-        corners = np.stack([front + half, front - half, rear - half, rear + half], axis=1)  # (n, 4, 2)
-        i, j = np.triu_indices(len(g), 1)
-        separated = np.zeros(len(i), dtype=bool)
-        for axes in (d[i], nrm[i], d[j], nrm[j]):  # (m, 2) candidate separating axes
-            pi = np.einsum("mkc,mc->mk", corners[i], axes)
-            pj = np.einsum("mkc,mc->mk", corners[j], axes)
-            separated |= (pi.max(1) < pj.min(1)) | (pj.max(1) < pi.min(1))
+        n = len(g)
+        i, j = overlapping_pairs(g["x"].to_numpy(), g["y"].to_numpy(), g["heading"].to_numpy(),
+                                 np.full(n, float(length)), np.full(n, float(width)))
         ids = g["vehicle"].to_numpy()
-        out += [(float(tm), str(ids[a]), str(ids[b])) for a, b in zip(i[~separated], j[~separated])]
+        out += [(float(tm), str(ids[a]), str(ids[b])) for a, b in zip(i.tolist(), j.tolist())]
     return out

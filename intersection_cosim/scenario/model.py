@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from intersection_cosim.control.safety.onboard import OnboardSettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.spec import JUNCTION_TYPES
 from intersection_cosim.settings import non_negative, positive
@@ -51,6 +52,9 @@ class ControllerSettings:
     #                             (an emulated box; the same run on any machine); 0: the wall clock
     etm: bool = True  # [-] event-triggered mechanism on (games only for risky pairs)
     realtime: bool = False  # [-] pace the simulation to the wall clock
+    # [controller.onboard]: every commanded vehicle's own guard behind the vehicle ahead, whatever the
+    # controller (control/safety/onboard.py)
+    onboard: OnboardSettings = field(default_factory=OnboardSettings)
 
     def check(self) -> list[tuple[str, str]]:
         return positive(self, "period", "budget_ms") + non_negative(self, "work_clock_ms")

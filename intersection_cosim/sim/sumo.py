@@ -13,23 +13,30 @@ libsumo runs one simulation per process; :meth:`SumoSimulation.close` is always 
 
 from __future__ import annotations
 
-import contextlib
-import io
 import math
 import re
-import subprocess
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Mapping
 
 import libsumo
-import numpy as np
 
 from intersection_cosim.control.base import Decisions, Walker, World
+from intersection_cosim.control.safety.onboard import OnboardSettings
 from intersection_cosim.errors import RouteRefusal
+from intersection_cosim.network.by_junction import path_junction
 from intersection_cosim.network.crossings import PedestrianCrossing
 from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
+from intersection_cosim.sim.backend import LIBSUMO, SumoBackend, sumo_version, traci_backend
+from intersection_cosim.sim.collisions import CollisionRecord, step_collisions
+from intersection_cosim.sim.onboard import OnboardGuard
+from intersection_cosim.sim.people import CrossingPeople
+from intersection_cosim.sim.snapshot import Bodies, junction_bodies, watched_lanes, world_snapshot
+from intersection_cosim.sim.vehicles import VehicleInfo
+
+__all__ = ["LANE_CHANGE_MODE_STRATEGIC", "LIBSUMO", "SumoBackend", "SumoSimulation", "VehicleInfo", "sumo_version",
+           "traci_backend"]
 
 LENGTH_TOL = 0.01  # [m] a lane whose SUMO length differs from its shape's by less is taken as its shape
 _VARS = (libsumo.VAR_POSITION, libsumo.VAR_SPEED, libsumo.VAR_ACCELERATION, libsumo.VAR_ANGLE,
@@ -43,61 +50,6 @@ LANE_CHANGE_MODE_STRATEGIC = 0b1000000001
 # SUMO's message when it cannot route a vehicle or person at its insertion
 ROUTE_REFUSAL = re.compile(r"No connection (found )?between edge")
 SPEED_MODE_SUMO = 31  # SUMO's default: every safety check on (for vehicles released from control)
-
-
-def sumo_version() -> str:
-    return libsumo.getVersion()[1]
-
-
-@dataclass(frozen=True)
-class SumoBackend:
-    """Which module drives SUMO and which SUMO program it runs.
-
-    ``module`` has libsumo's API (libsumo itself, or traci, which mirrors it over a socket);
-    ``binary`` is the program traci starts (libsumo runs in-process and only reads the options).
-    """
-
-    module: ModuleType
-    binary: str = "sumo"
-    options: tuple[str, ...] = ()  # extra options for this program only (e.g. sumo-gui's --start)
-
-    def start(self, args: list[str]) -> None:
-        cmd = [self.binary, *args, *self.options]
-        if self.module is libsumo:
-            libsumo.start(cmd)
-            return
-        with contextlib.redirect_stdout(io.StringIO()):  # traci prints "Retrying" while the GUI opens
-            self.module.start(cmd, stdout=subprocess.DEVNULL)
-
-
-LIBSUMO = SumoBackend(libsumo)  # headless, in this process: every run but ``run --gui``
-
-
-def traci_backend(binary: str, options: tuple[str, ...] = ()) -> SumoBackend:
-    """A backend that starts ``binary`` (e.g. sumo-gui) and drives it through TraCI."""
-    import traci
-
-    return SumoBackend(traci, binary, tuple(options))
-
-
-@dataclass
-class VehicleInfo:
-    """Static facts about a vehicle the adapter tracks."""
-
-    approach: str
-    lane: str  # approach lane name
-    movement: str
-    kappa: float
-    intended_path: str | None  # path id used until the vehicle is in the junction (None: resolved from
-    #                            its lane and route when it reaches a managed approach, on any net)
-    controlled: bool
-    exit_lane: str | None = None  # exit lane to enforce at the junction entry (None: SUMO's)
-    exit_fixed: bool = False  # the scenario fixes the exit lane: the controller may not choose
-    start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
-    desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
-    route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)
-    driver: str = "av"  # [-] "av" or "human" (a human is never controlled: SUMO's model drives it)
-    vtype: str = "av"  # [-] its SUMO vType id (of the run's route file, or the user's own)
 
 
 @dataclass
@@ -116,7 +68,9 @@ class SumoSimulation:
     exit_lane_taken: dict[str, str] = field(default_factory=dict)
     departed: dict[str, float] = field(default_factory=dict)
     arrived: dict[str, float] = field(default_factory=dict)
-    commands: dict[str, float] = field(default_factory=dict)  # [m/s^2] held accel per vehicle
+    commands: dict[str, float] = field(default_factory=dict)  # [m/s^2] held accel per commanded vehicle
+    owner: dict[str, str | None] = field(default_factory=dict)  # the junction whose controller commands
+    #   each commanded vehicle (None: the run's one junction); a command never outlives it
     switched: set[str] = field(default_factory=set)  # vehicles moved onto another connection
     lane_change_mode: int = LANE_CHANGE_MODE_CONTROLLED  # of a controlled vehicle
     adopt_controlled: bool = True  # vehicles of the user's own route file are controlled
@@ -129,9 +83,13 @@ class SumoSimulation:
     people_first: bool = False  # each person is told, at its departure, that vehicles yield to it
     #   (impatience 1: it does not wait for a gap); for controllers that command the vehicles with
     #   SUMO's right of way off, which SUMO's people would otherwise still count on
+    onboard: OnboardSettings | None = None  # the onboard guard of every commanded vehicle (None: off)
+    min_gaps: dict[str, float] = field(default_factory=dict)  # [m] SUMO's minGap per vehicle, read at departure
+    collision_log: list[CollisionRecord] = field(default_factory=list)  # SUMO's collisions, step by step
+    guard: OnboardGuard | None = None  # made by start() from ``onboard``
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
-    _impatient_types: set[str] = field(default_factory=set)  # person vTypes set to impatience 1
-    _walking_areas: dict[str, list[PedestrianCrossing]] = field(default_factory=dict)  # lane -> crossings at it
+    _people: CrossingPeople | None = None
+    _watched: frozenset[str] = frozenset()  # the lanes in and around the managed junctions
     _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
 
@@ -145,11 +103,12 @@ class SumoSimulation:
                 self._lane_to_paths.setdefault(lane, []).append(pid)
             for lane in p.lanes[:p.stop_index]:
                 self._approach_paths.setdefault(lane, []).append(pid)
-        for crossing in self.crossings.values():
-            for area in crossing.walking_areas:
-                self._walking_areas.setdefault(area, []).append(crossing)
         self.backend.start(["-c", sumocfg, "--no-step-log", "true", *(extra or [])])
         self._scale = self._lane_scales()
+        self._people = CrossingPeople(self.api, self.crossings) if self.crossings else None
+        self._watched = watched_lanes(self.api, self.movements)
+        if self.onboard is not None and self.onboard.enabled:
+            self.guard = OnboardGuard(self.api, self.onboard, self.step_length)
 
     def _lane_scales(self) -> dict[str, float]:
         """Per path lane whose SUMO length differs from its shape's length (by ``LENGTH_TOL`` [m]
@@ -194,8 +153,9 @@ class SumoSimulation:
                 raise RouteRefusal(self.time + self.step_length, str(exc)) from None
             raise
         self.time = self.api.simulation.getTime()
-        if self.people_first and self.crossings:
-            self._people_first()
+        self.collision_log += step_collisions(self.api, self.time, self.commands)
+        if self.people_first and self._people is not None:
+            self._people.people_first()
         for vid in self.api.simulation.getDepartedIDList():
             self.departed[vid] = self.time - self.step_length
             self.api.vehicle.subscribe(vid, _VARS)
@@ -203,6 +163,7 @@ class SumoSimulation:
             veh = self.api.vehicle
             self.bodies[vid] = (veh.getLength(vid), veh.getWidth(vid), veh.getAccel(vid), veh.getDecel(vid),
                                 veh.getEmergencyDecel(vid))
+            self.min_gaps[vid] = veh.getMinGap(vid)
             if info.desired_speed is not None:
                 self.api.vehicle.setMaxSpeed(vid, info.desired_speed)
             if info.intended_path is None:
@@ -217,6 +178,7 @@ class SumoSimulation:
             self.arrived[vid] = self.time
             self.states.pop(vid, None)
             self.commands.pop(vid, None)
+            self.owner.pop(vid, None)
         results = self.api.vehicle.getAllSubscriptionResults()
         for vid, res in results.items():
             self.states[vid] = res
@@ -228,6 +190,8 @@ class SumoSimulation:
             if info is not None and info.start_s is not None and vid in self.states:
                 self.states[vid] = self._read(vid)
                 self._track_path(vid, self.states[vid][libsumo.VAR_LANE_ID])
+        for vid in [vid for vid, junction in self.owner.items() if not self._ownable(vid, junction)]:
+            self._release(vid)  # it left its owner's junction: SUMO drives it until another takes it
 
     def _track_path(self, vid: str, lane: str) -> None:
         """Resolve the vehicle's movement path from its lane and enforce its exit lane.
@@ -279,11 +243,34 @@ class SumoSimulation:
         return path.s_stop - s <= self.control_range
 
     def _take_over(self, vid: str, info: VehicleInfo) -> None:
-        """The controller commands ``vid`` from now on (a controlled vehicle, not yet taken)."""
+        """A controller may command ``vid`` from now on (a controlled vehicle, not yet taken): its
+        lane changes are the controller's; its speed becomes the controller's with the first
+        command a junction that owns it sends (:meth:`command`)."""
         if info.controlled and vid not in self.taken:
-            self.api.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)
             self.api.vehicle.setLaneChangeMode(vid, self.lane_change_mode)
             self.taken.add(vid)
+
+    def _ownable(self, vid: str, junction: str | None) -> bool:
+        """Whether the controller of ``junction`` (None: the run's one junction) may command ``vid``
+        now: an AV in the network on one of that junction's paths, short of the path's exit lane
+        (there it has left the junction)."""
+        info, pid = self.vehicles.get(vid), self.current_path.get(vid)
+        if pid is None or vid not in self.states or (info is not None and info.driver == "human"):
+            return False
+        path = self.paths[pid]
+        if self.states[vid][libsumo.VAR_LANE_ID] == path.lanes[-1]:
+            return False
+        return junction is None or path_junction(self.movements, pid) == junction
+
+    def _release(self, vid: str) -> None:
+        """SUMO's driver model drives ``vid`` again (its speed command and owner dropped)."""
+        self.owner.pop(vid, None)
+        if self.commands.pop(vid, None) is not None and vid in self.states:
+            self.api.vehicle.setSpeed(vid, -1)
+            self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
+        info = self.vehicles.get(vid)
+        if info is not None and info.intended_path is None:
+            self.taken.discard(vid)  # on any net it may be taken over at the next managed junction
 
     def _adopt(self, vid: str) -> VehicleInfo:
         """A vehicle of the user's own route file: kappa from its ``kappa`` parameter (else 0.5),
@@ -348,129 +335,51 @@ class SumoSimulation:
         return {v: get[v](vid) for v in _VARS}
 
     def world(self) -> World:
-        """A snapshot of every vehicle in the network, in the paper's frame."""
-        ids = sorted(vid for vid in self.states if vid in self.current_path)
-        n = len(ids)
-        s = np.empty(n)
-        arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
-        body = np.array([self.bodies[vid] for vid in ids], float).reshape(n, 5)  # length, width, accel, decels
-        human = np.zeros(n, bool)
-        path_ids, roles, lanes = [], [], []
-        exit_choices: dict[str, tuple[str, ...]] = {}
-        for i, vid in enumerate(ids):
-            st = self.states[vid]
-            pid = self.current_path[vid]
-            path = self.paths[pid]
-            lane = st[libsumo.VAR_LANE_ID]
-            s[i] = (self.arc(path, lane, st[libsumo.VAR_LANEPOSITION]) if lane in path.lanes
-                    else st[libsumo.VAR_LANEPOSITION])
-            arr["v"][i] = st[libsumo.VAR_SPEED]
-            arr["a"][i] = st[libsumo.VAR_ACCELERATION]
-            arr["x"][i], arr["y"][i] = st[libsumo.VAR_POSITION]
-            arr["heading"][i] = math.radians(90.0 - st[libsumo.VAR_ANGLE])
-            info = self.vehicles.get(vid)
-            arr["kappa"][i] = info.kappa if info else 0.5
-            arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
-            human[i] = info is not None and info.driver == "human"
-            path_ids.append(pid)
-            lanes.append(lane)
-            # on its path's exit lane a vehicle has left its junction, though that lane may be
-            # the next managed junction's approach (a corridor)
-            role = OUTSIDE if lane == path.lanes[-1] else self.movements.role(lane)
-            if info is not None and role == READY and not info.exit_fixed and info.driver != "human":
-                exit_choices[vid] = self.movements.options(pid)
-            else:
-                exit_choices[vid] = (path.exit_lane,)
-            roles.append(role)
-        return World(time=self.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
-                     x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
-                     lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human,
-                     exit_free=self._exit_free(exit_choices, roles, ids), length=body[:, 0], width=body[:, 1],
-                     accel=body[:, 2], decel=body[:, 3], emergency_decel=body[:, 4], walkers=self.walkers())
-
-    def _people_first(self) -> None:
-        """Impatience 1 for the vType of each person that departed this step (set on its type:
-        libsumo's person.setImpatience addresses vehicles), once per type."""
-        for pid in self.api.simulation.getDepartedPersonIDList():
-            vtype = self.api.person.getTypeID(pid)
-            if vtype not in self._impatient_types:
-                self.api.vehicletype.setImpatience(vtype, 1.0)
-                self._impatient_types.add(vtype)
+        """A snapshot of every vehicle on a managed path, in the paper's frame (sim/snapshot.py)."""
+        return world_snapshot(self)
 
     def walkers(self) -> tuple[Walker, ...]:
-        """The persons on a managed junction's crossing, and those on a walking area at one with
-        that crossing as their next edge, walking or waiting at the kerb (SUMO's person steps out
-        when its own gap model, blind to the controller's plans, says so); () without
-        crossings. A person's axis position is its position projected onto the crossing's axis
-        (in the axis' own metres, as the paths' crossing stretches are, whatever SUMO's length of
-        the crossing lane), so on a walking area it lies before the axis' start or past its end."""
-        if not self.crossings:
-            return ()
-        person, out = self.api.person, []
-        for pid in person.getIDList():
-            lane = person.getLaneID(pid)
-            crossing = self.crossings.get(lane)
-            if crossing is not None:
-                angle = math.radians(person.getAngle(pid))  # navigational: 0 north, clockwise
-                d = crossing.direction
-                sign = 1 if math.sin(angle) * d[0] + math.cos(angle) * d[1] >= 0.0 else -1
-                x, y = person.getPosition(pid)
-                out.append(Walker(pid, lane, crossing.along(x, y), sign, person.getSpeed(pid), x, y))
-                continue
-            near = self._walking_areas.get(lane)
-            if not near:
-                continue
-            nxt = person.getNextEdge(pid)
-            for crossing in near:
-                if crossing.edge == nxt:
-                    x, y = person.getPosition(pid)
-                    pos = crossing.along(x, y)
-                    sign = 1 if pos < crossing.length / 2 else -1
-                    out.append(Walker(pid, crossing.lane, pos, sign, person.getSpeed(pid), x, y))
-        return tuple(out)
+        """The persons at the managed junctions' crossings (sim/people.py); () without crossings."""
+        return self._people.walkers() if self._people is not None else ()
 
-    def _exit_free(self, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
-        """Per exit lane (SUMO lane id) a READY vehicle may take: ([m] from the lane's start to the
-        rear of the last vehicle on it, SUMO's whoever drives it, [m/s] that vehicle's speed); the
-        lane's length and inf if it is empty."""
-        lanes = {self.paths[self.movements.siblings.get((self.current_path[vid], option), self.current_path[vid])].lanes[-1]
-                 for vid, role in zip(ids, roles) if role == READY for option in exit_choices[vid]}
-        free = {}
-        veh = self.api.vehicle
-        for lane in sorted(lanes):
-            rears = [(veh.getLanePosition(v) - veh.getLength(v), veh.getSpeed(v))
-                     for v in self.api.lane.getLastStepVehicleIDs(lane)]
-            free[lane] = (max(0.0, min(rears)[0]), min(rears)[1]) if rears else (self.api.lane.getLength(lane), math.inf)
-        return free
+    def junction_bodies(self) -> Bodies:
+        """The bodies of every vehicle in and around the managed junctions (sim/snapshot.py)."""
+        return junction_bodies(self, self._watched)
 
     # --- write -----------------------------------------------------------------------------
     def command(self, decisions: Decisions) -> None:
-        """Take a controller's decisions: an acceleration held until the next decision, and exit lanes."""
+        """Take a controller's decisions: an acceleration held until the next decision, and exit
+        lanes. A command is taken only from the junction that may command the vehicle now
+        (``Decisions.owner``; :meth:`_ownable`): one that left that junction since (a decision
+        late over a V2X link, or made before a handover) stays SUMO's or its new owner's."""
         for vid, accel in decisions.accel.items():
-            info = self.vehicles.get(vid)
-            if vid in self.states and (info is None or info.driver != "human"):  # a human is never commanded
-                self.commands[vid] = float(accel)
+            junction = decisions.owner.get(vid)
+            if not self._ownable(vid, junction):
+                continue
+            if vid not in self.commands:
+                self.api.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)  # the controller's from now on
+            self.commands[vid] = float(accel)
+            self.owner[vid] = junction
         for vid, lane in decisions.exit_lane.items():
             if vid in self.vehicles and self.vehicles[vid].driver != "human":
                 self.vehicles[vid].exit_lane = lane
-        # a commanded vehicle on no managed path is in no controller's World: SUMO's again
-        lost = [vid for vid in self.commands if vid not in self.current_path]
-        for vid in [*decisions.release, *lost]:
-            if self.commands.pop(vid, None) is not None and vid in self.states:
-                self.api.vehicle.setSpeed(vid, -1)  # SUMO's own driver model takes over again
-                self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
-            if self.vehicles.get(vid) is not None and self.vehicles[vid].intended_path is None:
-                self.taken.discard(vid)  # on any net it may be taken over at the next managed junction
+        for vid in decisions.release:
+            if vid in self.owner and decisions.owner.get(vid, self.owner[vid]) == self.owner[vid]:
+                self._release(vid)
 
     def write(self) -> None:
-        """Write this SUMO step's speed commands: v + a * step for every commanded vehicle.
+        """Write this SUMO step's speed commands: v + a * step for every commanded vehicle, capped
+        by the onboard guard (sim/onboard.py) behind the vehicle ahead.
 
         Controlled vehicles run with speed mode 0, so the speed SUMO realises at the end of the
         step is exactly the commanded one (setSpeed every step; tests check this).
         """
         for vid, accel in self.commands.items():
             v = self.states[vid][libsumo.VAR_SPEED]
-            self.api.vehicle.setSpeed(vid, max(0.0, v + accel * self.step_length))
+            target = max(0.0, v + accel * self.step_length)  # [m/s]
+            if self.guard is not None:
+                target = self.guard.speed(vid, v, target, self.states, self.bodies, self.min_gaps)
+            self.api.vehicle.setSpeed(vid, target)
 
     def switch_signals_off(self) -> list[str]:
         """Switch off every traffic light that controls a link into a managed junction (its
@@ -483,9 +392,6 @@ class SumoSimulation:
                 self.api.trafficlight.setProgram(tls, "off")
                 off.append(tls)
         return off
-
-    def collisions(self) -> list[tuple[str, str]]:
-        return [(c.collider, c.victim) for c in self.api.simulation.getCollisions()]
 
     def remaining(self) -> int:
         """Vehicles still in the network or waiting to be inserted."""

@@ -71,6 +71,7 @@ from numba import njit
 from intersection_cosim.control.base import Decisions, World
 from intersection_cosim.control.game.plan_memory import human_forecast
 from intersection_cosim.control.game.relations import Lateral, Relations, named_pairs
+from intersection_cosim.control.safety.onboard import krauss_safe_speed
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
@@ -203,17 +204,6 @@ def braking_plan(plan: Plan, accel: float) -> Plan:
         k = np.arange(n) * dt
         a = accel * np.clip((t_stop - k) / dt, 0.0, 1.0)  # the last step ends exactly at v = 0
     return Plan.from_accelerations(float(plan.positions[0]), v0, a, dt)
-
-
-def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float, leader_decel: float | None = None) -> float:
-    """[m/s] Krauss' safe speed behind a leader ``gap`` [m] ahead (bumper to bumper) at
-    ``v_leader`` [m/s], for maximum deceleration ``decel`` [m/s^2] and reaction time ``tau`` [s]:
-    the speed from which the follower, reacting after ``tau``, stops within the gap plus the
-    leader's own braking distance v_L^2 / (2 b_L), the leader braking at ``leader_decel`` [m/s^2]
-    (default ``decel``: Krauss' form, -b tau + sqrt((b tau)^2 + v_L^2 + 2 b gap))."""
-    b_l = decel if leader_decel is None else leader_decel
-    bt = decel * tau
-    return -bt + math.sqrt(max(bt * bt + decel / b_l * v_leader * v_leader + 2.0 * decel * max(gap, 0.0), 0.0))
 
 
 class _Crossing(NamedTuple):

@@ -1,0 +1,107 @@
+"""What the simulator adapter reads out of SUMO's state for the controllers and the checks: the
+World snapshot of the vehicles on managed paths, and the bodies of every vehicle in and around the
+managed junctions (for our own collision check, results/overlaps.py)."""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import libsumo
+import numpy as np
+
+from intersection_cosim.control.base import World
+from intersection_cosim.network.movements import OUTSIDE, READY, Movements
+
+
+class Bodies(NamedTuple):
+    """Vehicle bodies at one moment, aligned by index."""
+
+    ids: list[str]
+    x: np.ndarray  # [m] front bumper
+    y: np.ndarray  # [m]
+    heading: np.ndarray  # [rad] counter-clockwise from east
+    length: np.ndarray  # [m]
+    width: np.ndarray  # [m]
+    lanes: list[str]
+    commanded: np.ndarray  # bool: a controller commands it
+
+
+def watched_lanes(api, movements: Movements) -> frozenset[str]:
+    """The lanes in and around the managed junctions: every lane of a managed path, and every
+    internal lane of a managed junction (SUMO's internal edges start and end at their junction)."""
+    lanes = {lane for path in movements.paths.values() for lane in path.lanes}
+    managed = set(movements.junctions)
+    for lane in api.lane.getIDList():
+        if lane.startswith(":") and api.edge.getFromJunction(api.lane.getEdgeID(lane)) in managed:
+            lanes.add(lane)
+    return frozenset(lanes)
+
+
+def junction_bodies(sim, watched: frozenset[str]) -> Bodies:
+    """The bodies of every vehicle (whoever drives it) on a lane of ``watched``, as last read."""
+    ids = [vid for vid, st in sim.states.items() if st[libsumo.VAR_LANE_ID] in watched]
+    n = len(ids)
+    pos = np.array([sim.states[vid][libsumo.VAR_POSITION] for vid in ids], float).reshape(n, 2)
+    angle = np.array([sim.states[vid][libsumo.VAR_ANGLE] for vid in ids], float)  # [deg] navigational
+    body = np.array([sim.bodies[vid][:2] for vid in ids], float).reshape(n, 2)
+    return Bodies(ids, pos[:, 0], pos[:, 1], np.radians(90.0 - angle), body[:, 0], body[:, 1],
+                  [sim.states[vid][libsumo.VAR_LANE_ID] for vid in ids],
+                  np.array([vid in sim.commands for vid in ids], bool))
+
+
+def world_snapshot(sim) -> World:
+    """A snapshot of every vehicle in the network, in the paper's frame."""
+    ids = sorted(vid for vid in sim.states if vid in sim.current_path)
+    n = len(ids)
+    s = np.empty(n)
+    arr = {k: np.empty(n) for k in ("v", "a", "x", "y", "heading", "kappa", "desired")}
+    body = np.array([sim.bodies[vid] for vid in ids], float).reshape(n, 5)  # length, width, accel, decels
+    human = np.zeros(n, bool)
+    path_ids, roles, lanes = [], [], []
+    exit_choices: dict[str, tuple[str, ...]] = {}
+    for i, vid in enumerate(ids):
+        st = sim.states[vid]
+        pid = sim.current_path[vid]
+        path = sim.paths[pid]
+        lane = st[libsumo.VAR_LANE_ID]
+        s[i] = (sim.arc(path, lane, st[libsumo.VAR_LANEPOSITION]) if lane in path.lanes
+                else st[libsumo.VAR_LANEPOSITION])
+        arr["v"][i] = st[libsumo.VAR_SPEED]
+        arr["a"][i] = st[libsumo.VAR_ACCELERATION]
+        arr["x"][i], arr["y"][i] = st[libsumo.VAR_POSITION]
+        arr["heading"][i] = math.radians(90.0 - st[libsumo.VAR_ANGLE])
+        info = sim.vehicles.get(vid)
+        arr["kappa"][i] = info.kappa if info else 0.5
+        arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
+        human[i] = info is not None and info.driver == "human"
+        path_ids.append(pid)
+        lanes.append(lane)
+        # on its path's exit lane a vehicle has left its junction, though that lane may be
+        # the next managed junction's approach (a corridor)
+        role = OUTSIDE if lane == path.lanes[-1] else sim.movements.role(lane)
+        if info is not None and role == READY and not info.exit_fixed and info.driver != "human":
+            exit_choices[vid] = sim.movements.options(pid)
+        else:
+            exit_choices[vid] = (path.exit_lane,)
+        roles.append(role)
+    return World(time=sim.time, ids=ids, path_ids=path_ids, s=s, v=arr["v"], a=arr["a"],
+                 x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
+                 lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human,
+                 exit_free=_exit_free(sim, exit_choices, roles, ids), length=body[:, 0], width=body[:, 1],
+                 accel=body[:, 2], decel=body[:, 3], emergency_decel=body[:, 4], walkers=sim.walkers())
+
+def _exit_free(sim, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
+    """Per exit lane (SUMO lane id) a READY vehicle may take: ([m] from the lane's start to the
+    rear of the last vehicle on it, SUMO's whoever drives it, [m/s] that vehicle's speed); the
+    lane's length and inf if it is empty."""
+    lanes = {sim.paths[sim.movements.siblings.get((sim.current_path[vid], option), sim.current_path[vid])].lanes[-1]
+             for vid, role in zip(ids, roles) if role == READY for option in exit_choices[vid]}
+    free = {}
+    veh = sim.api.vehicle
+    for lane in sorted(lanes):
+        rears = [(veh.getLanePosition(v) - veh.getLength(v), veh.getSpeed(v))
+                 for v in sim.api.lane.getLastStepVehicleIDs(lane)]
+        free[lane] = (max(0.0, min(rears)[0]), min(rears)[1]) if rears else (sim.api.lane.getLength(lane), math.inf)
+    return free
+
