@@ -42,7 +42,7 @@ from typing import Mapping
 
 from intersection_cosim.control.base import Walker, World
 from intersection_cosim.control.safety import occupancy, stopping_acceleration
-from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.network.crossings import CrossingZone
 from intersection_cosim.network.movements import Movements

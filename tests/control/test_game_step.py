@@ -16,7 +16,7 @@ from intersection_cosim.control.game.players import leader_trajectory
 from intersection_cosim.control.game.relations import step_relations
 from intersection_cosim.control.safety import occupancy
 from intersection_cosim.control.game.settings import GameControllerSettings, PolicySettings
-from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.models.settings import ModelSettings
 from tests.control.conftest import make_world
 

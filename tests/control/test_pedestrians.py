@@ -12,7 +12,7 @@ import sumo
 from intersection_cosim.control.base import ControlContext, Walker
 from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.control.pedestrians import pedestrian_holds, vehicle_window, walker_window
-from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.crossings import crossing_zones, junction_crossings

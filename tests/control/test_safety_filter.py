@@ -10,7 +10,7 @@ from intersection_cosim.control.game.relations import step_relations
 from intersection_cosim.control.safety import SafetyFilter, braking_plan
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.game.settings import PolicySettings
-from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.settings import ModelSettings
 from tests.control.conftest import make_world

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.settings import GameSettings, ProblemSettings, SolverSettings
 from intersection_cosim.settings import non_negative, positive
 

@@ -73,7 +73,7 @@ from intersection_cosim.control.game.plan_memory import human_forecast
 from intersection_cosim.control.game.relations import Lateral, Relations, named_pairs
 from intersection_cosim.control.safety.onboard import krauss_safe_speed
 from intersection_cosim.games.problem import Plan
-from intersection_cosim.control.settings import SafetySettings
+from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
