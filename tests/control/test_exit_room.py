@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from intersection_cosim.control.base import ControlContext
-from intersection_cosim.control.exit_room import exit_room_caps
+from intersection_cosim.control.safety.exit_room import exit_room_caps
 from intersection_cosim.control.baselines.fcfs import FcfsController
 from intersection_cosim.control.baselines.reservations import FcfsSettings
 from intersection_cosim.models.settings import ModelSettings

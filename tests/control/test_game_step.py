@@ -14,7 +14,7 @@ from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.game.players import leader_trajectory
 from intersection_cosim.control.game.relations import step_relations
-from intersection_cosim.control.safety import occupancy
+from intersection_cosim.control.safety.kinematics import occupancy
 from intersection_cosim.control.game.settings import GameControllerSettings, PolicySettings
 from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.models.settings import ModelSettings
@@ -55,7 +55,7 @@ def test_a_crossing_is_guarded_until_the_turning_body_has_cleared_it(controller,
     world.role[0] = "passing"
     d = controller.decide(world, time.perf_counter() + 10.0)
     assert d.games == 0
-    margin = controller.settings.safety.safety_margin
+    margin = controller.settings.safety.margin
     assert d.accel["B"] == pytest.approx(-8.0 ** 2 / (2 * (12.0 - margin)), rel=1e-6)  # -2.9 m/s^2
 
 
@@ -151,7 +151,7 @@ def test_a_vehicle_before_the_junction_waits_at_its_stop_line(controller, paths)
     world = _world(paths, 0.0, [("A", first, t.s_a[p, q], 0.0), ("B", second, s_stop - 10.0, 8.0)])
     world.role[0] = "passing"
     d = controller.decide(world, time.perf_counter() + 10.0)
-    margin = controller.settings.safety.safety_margin
+    margin = controller.settings.safety.margin
     assert d.accel["B"] == pytest.approx(-8.0 ** 2 / (2 * (10.0 - margin)), rel=1e-6)  # -3.6 m/s^2
 
 
@@ -313,7 +313,7 @@ def test_yield_order_decides_who_waits_at_a_crossing(paths, net_file, order):
 
 def _weak_lateral_controller(paths, net_file):
     """A Nash controller whose games weigh J_lat lightly (k_lat = 1): their plans pass a crossing
-    closer than safety_time_gap, which the filter must then enforce (at the default k_lat the
+    closer than time_gap, which the filter must then enforce (at the default k_lat the
     yielding player already brakes at a_min in its equilibrium plan). The pair keeps the whole
     gap (game_gap_share 1): at the default share its plans would be far enough apart."""
     full_gap = GameControllerSettings(safety=SafetySettings(game_gap_share=1.0))
@@ -335,7 +335,7 @@ def _pair_a_game_lets_pass_first(paths, net_file):
 
 def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(paths, net_file):
     """B is nearer the crossing in time at its current speed (1.71 s against A's 2.0 s), but the
-    pair's game lets A pass first, and its plans still pass within safety_time_gap. The filter
+    pair's game lets A pass first, and its plans still pass within time_gap. The filter
     keeps the game's order (for a pair without a game it would rank B first): A drives its
     equilibrium plan, B brakes below its own."""
     controller, world, zone_a, zone_b = _pair_a_game_lets_pass_first(paths, net_file)
@@ -344,7 +344,7 @@ def test_the_filter_enforces_a_games_passing_order_instead_of_overruling_it(path
     plan_a, plan_b = controller.memory.plans["A"], controller.memory.plans["B"]
     (in_a, out_a), (in_b, _) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
     assert 12.0 / 7.0 < 8.0 / 4.0 and in_a < in_b  # TCP order B, A; the game's order A, B
-    assert in_b < out_a + controller.settings.safety.safety_time_gap  # too close: the filter must order them
+    assert in_b < out_a + controller.settings.safety.time_gap  # too close: the filter must order them
     assert d.accel["A"] == pytest.approx(float(plan_a.accelerations[0]))  # A goes as the game says
     assert d.accel["B"] < float(plan_b.accelerations[0]) - 1.0  # B is held back
 
@@ -361,7 +361,7 @@ def test_a_vehicle_inside_the_junction_keeps_its_queue_priority_against_a_game(p
     assert d.games == 1 and "B" in controller.safety.entered
     plan_a, plan_b = controller.memory.plans["A"], controller.memory.plans["B"]
     (in_a, out_a), (in_b, _) = occupancy(plan_a, *zone_a), occupancy(plan_b, *zone_b)
-    assert in_a < in_b < out_a + controller.settings.safety.safety_time_gap  # the game's order, too close
+    assert in_a < in_b < out_a + controller.settings.safety.time_gap  # the game's order, too close
     assert d.accel["B"] == pytest.approx(float(plan_b.accelerations[0]))  # B goes: it is inside
     assert d.accel["A"] < float(plan_a.accelerations[0]) - 1.0  # A waits against its game's plan
 

@@ -10,7 +10,7 @@ from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.control.game.plan_memory import PlanMemory
 from intersection_cosim.control.game.players import player
 from intersection_cosim.control.game.relations import step_relations
-from intersection_cosim.control.safety import SafetyFilter
+from tests.control.conftest import FilterUnderTest
 from intersection_cosim.control.game.settings import PolicySettings
 from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
@@ -38,7 +38,7 @@ def _crossing_world(paths, t, human: bool, d_left: float = 16.0, d_straight: flo
 def _filter(world, movements, t, plans, decisions):
     active = {k for k in range(len(world)) if not world.is_human(k)}
     rel = step_relations(world, active, movements, t, MODEL, True, {}, RANGE)
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
     return f.apply(world, rel, plans, {}, decisions), f
 
 
@@ -73,7 +73,7 @@ def test_an_av_in_the_junction_drives_on_when_the_human_can_still_stop(paths, mo
     d = Decisions(accel={"L": 0.0})
     active = {0}
     rel = step_relations(world, active, movements, t, MODEL, True, {}, RANGE)
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
     f.record_entries(world)
     assert not f.human_committed(world, 1, float(t.zone_in[t.index[STRAIGHT], t.index[LEFT]]))
     f.apply(world, rel, {"L": plan_l}, {}, d)
@@ -121,7 +121,7 @@ def test_an_av_waits_at_its_stop_line_while_a_human_brakes_to_stop_in_its_crossi
     braking = dataclasses.replace(world, a=np.array([0.0, -4.5]))
     d = Decisions(accel={"L": 0.0})
     held, _ = _filter(braking, movements, t, plans, d)
-    stop_line = float(t.s_stop[p]) - GS.safety_margin  # [m]
+    stop_line = float(t.s_stop[p]) - GS.margin  # [m]
     assert stop_line > s_l
     assert np.isclose(d.accel["L"], -8.0 ** 2 / (2 * (stop_line - s_l))) and held == {"L"}
     assert d.accel["L"] > PROBLEM.a_min
@@ -170,7 +170,7 @@ def test_an_av_in_the_box_that_cannot_stay_out_of_a_humans_crossing_drives_out_i
         d = Decisions(accel={"L": 0.5})
         active = {0}
         rel = step_relations(world, active, movements, t, MODEL, True, {}, RANGE)
-        f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+        f = FilterUnderTest(GS, t.s_stop, 0.1)
         f.record_entries(world)
         f.apply(world, rel, {"L": plan}, {}, d)
         if drives_out:
@@ -195,7 +195,7 @@ def test_an_av_waits_at_its_stop_line_while_a_human_may_be_held_at_its_waiting_p
     h, k = t.index[human], t.index[av]
     s_wait = float(t.s_wait[h])
     assert t.zone_in[h, k] <= s_wait < t.zone_out[h, k]  # its waiting position is in the crossing
-    stop_line = float(t.s_stop[k]) - GS.safety_margin  # [m]
+    stop_line = float(t.s_stop[k]) - GS.margin  # [m]
     for s_h, s_av, v_av, held_expected in ((s_wait - 15.0, stop_line - 7.0, 5.5, True),
                                            (s_wait - 40.0, float(t.s_stop[k]) - 1.0, 10.0, False)):
         world = make_world(paths, 10.0, [("L", av, s_av, v_av), ("H", human, s_h, 10.0)])
@@ -204,7 +204,7 @@ def test_an_av_waits_at_its_stop_line_while_a_human_may_be_held_at_its_waiting_p
         rel = step_relations(world, {0}, movements, t, MODEL, True, {}, RANGE)
         for s_wait_known in (t.s_wait, None):
             d = Decisions(accel={"L": 0.0})
-            held = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, s_wait_known).apply(world, rel, {"L": plan}, {}, d)
+            held = FilterUnderTest(GS, t.s_stop, 0.1, s_wait_known).apply(world, rel, {"L": plan}, {}, d)
             if held_expected and s_wait_known is not None:
                 assert held == {"L"} and np.isclose(d.accel["L"], -v_av ** 2 / (2 * 7.0))  # stops at its line
             else:
@@ -235,7 +235,7 @@ def test_a_human_at_its_waiting_position_may_start_against_the_streams_its_junct
         plan = Plan.from_accelerations(s_av, 10.0, np.zeros(PROBLEM.steps), PROBLEM.dt)
         rel = step_relations(world, {1}, movements, t, MODEL, True, {}, RANGE)
         for known in (waits, None):
-            f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, t.s_wait, known)
+            f = FilterUnderTest(GS, t.s_stop, 0.1, t.s_wait, known)
             f.record_entries(world)
             d = Decisions(accel={"A": 0.0})
             held = f.apply(world, rel, {"A": plan}, {}, d)

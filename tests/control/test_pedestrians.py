@@ -11,7 +11,7 @@ import sumo
 
 from intersection_cosim.control.base import ControlContext, Walker
 from intersection_cosim.control.game.controller import GameController
-from intersection_cosim.control.pedestrians import pedestrian_holds, vehicle_window, walker_window
+from intersection_cosim.control.safety.pedestrians import pedestrian_holds, vehicle_window, walker_window
 from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.models.settings import ModelSettings
@@ -57,7 +57,7 @@ def test_a_vehicle_waits_at_its_stop_line_for_a_person_on_its_crossing_braking_f
     path, (c_in, _) = movements.paths[PATH], zones[PATH]
     mid = sum(c_in.span) / 2  # [m] on the crossing's axis, in front of the vehicle
     person = Walker("p", c_in.lane, mid, +1, 1.2)
-    stop = path.s_stop - ST.safety_margin  # [m]
+    stop = path.s_stop - ST.margin  # [m]
     # 10 m/s: comfortable braking (2 m/s^2) needs 25 m; from 40 m before its stop point it drives on
     assert _holds(fokr, stop - 40.0, 10.0, [person]) == {}
     cap = _holds(fokr, stop - 24.0, 10.0, [person])["A"]
@@ -88,7 +88,7 @@ def test_a_person_on_the_road_out_holds_the_vehicle_at_its_stop_line_not_in_the_
     person = Walker("p", c_out.lane, sum(c_out.span) / 2, -1, 0.0)  # standing on the crossing out
     assert _holds(fokr, path.s_stop - 10.0, 5.0, [person]) == {}  # at 5 m/s it need not brake yet
     cap = _holds(fokr, path.s_stop - 6.0, 5.0, [person])["A"]
-    assert cap == pytest.approx(-25.0 / (2 * (6.0 - ST.safety_margin)))  # [m/s^2] at its stop line
+    assert cap == pytest.approx(-25.0 / (2 * (6.0 - ST.margin)))  # [m/s^2] at its stop line
     inside = _holds(fokr, c_out.zone_in - 7.0, 5.0, [person])["A"]  # in the junction: before the crossing
     assert inside == pytest.approx(-25.0 / (2 * (7.0 - ST.pedestrian_margin)))
 
@@ -101,7 +101,7 @@ def test_a_vehicle_does_not_enter_a_crossing_it_could_not_leave_while_people_wal
     s = path.s_stop - 6.0  # [m] at 5 m/s: it must brake now to stop at its stop line
     assert _holds(fokr, s, 5.0, [far]) == {}
     blocked = _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 0.0))  # rear 0.5 m past the crossing
-    assert blocked["A"] == pytest.approx(-25.0 / (2 * (6.0 - ST.safety_margin)))
+    assert blocked["A"] == pytest.approx(-25.0 / (2 * (6.0 - ST.margin)))
     assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 3.0)) == {}  # the leader drives on
     assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 5.0, 0.0)) == {}  # room behind the crossing
     assert _holds(fokr, s, 5.0, [], lead=(c_in.zone_out + 0.5, 0.0)) == {}  # nobody there
@@ -113,7 +113,7 @@ def test_a_standing_vehicle_reckons_to_drive_off_not_to_creep_over_the_crossing(
     which someone always walks onto a busy one: it stood for good)."""
     movements, zones = fokr
     path, (c_in, _) = movements.paths[PATH], zones[PATH]
-    s = path.s_stop - ST.safety_margin  # [m] standing at its stop point
+    s = path.s_stop - ST.margin  # [m] standing at its stop point
     world = make_world(movements.paths, 10.0, [("A", PATH, s, 0.0)])
     t_in, t_out = vehicle_window(world, 0, c_in, None, 0.1, 2.5)
     d_in, d_out = c_in.zone_in - s, c_in.zone_out - s  # [m]
@@ -167,7 +167,7 @@ def test_a_vehicle_too_close_to_stop_in_its_own_braking_makes_an_emergency_stop_
 def test_the_follower_of_an_emergency_stop_keeps_its_safe_speed_behind_that_braking(fokr):
     """Krauss' safe speed behind a leader that makes an emergency stop counts on the leader's
     actual braking, not its vType's decel (on a DRT junction the follower stopped 0.09 m behind)."""
-    from intersection_cosim.control.safety import krauss_safe_speed
+    from intersection_cosim.control.safety.onboard import krauss_safe_speed
 
     movements, zones = fokr
     c_in, _ = zones[PATH]
@@ -181,7 +181,7 @@ def test_the_follower_of_an_emergency_stop_keeps_its_safe_speed_behind_that_brak
     d = controller.decide(world, time.perf_counter() + 10.0)
     stop = -v * v / (2 * (4.0 - 0.05))  # [m/s^2] A's emergency stop
     assert d.accel["A"] == pytest.approx(stop, rel=1e-3)
-    gap = 8.0 - controller.model.vehicle_length - controller.settings.safety.safety_margin  # [m] bumper to bumper
+    gap = 8.0 - controller.model.vehicle_length - controller.settings.safety.margin  # [m] bumper to bumper
     behind_emergency = (krauss_safe_speed(gap, v, 4.0, 0.1, -stop) - v) / 0.1  # [m/s^2]
     behind_normal = (krauss_safe_speed(gap, v, 4.0, 0.1, 4.0) - v) / 0.1
     assert behind_emergency < behind_normal - 1.0
@@ -193,7 +193,7 @@ def test_a_vehicle_at_the_crossings_edge_with_a_person_in_front_stops_there_deep
     its zone, taken as committed and driven into the person (fokr38, 5-7 people hit in 300 s).
     Within EDGE_DEPTH of the zone's start it stops now; deeper, or with nobody in its way within
     the windows themselves (a person the time gap alone counts), it drives on as before."""
-    from intersection_cosim.control.pedestrians import EDGE_DEPTH
+    from intersection_cosim.control.safety.pedestrians import EDGE_DEPTH
 
     movements, zones = fokr
     c_in, _ = zones[PATH]

@@ -7,7 +7,8 @@ import pytest
 
 from intersection_cosim.control.base import Decisions
 from intersection_cosim.control.game.relations import step_relations
-from intersection_cosim.control.safety import SafetyFilter, braking_plan
+from intersection_cosim.control.safety.kinematics import braking_plan
+from tests.control.conftest import FilterUnderTest
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.control.game.settings import PolicySettings
 from intersection_cosim.control.safety.settings import SafetySettings
@@ -47,7 +48,7 @@ def _entered_in_order(f, paths, vehicles, first):
 def _filter_with_entries(paths, conflict_table, veh, entered):
     """A SafetyFilter whose entry queue recorded each of ``veh`` (make_world's tuples) entering at
     ``entered[id]`` [s], in that order (vehicles may share a time)."""
-    f = SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, 0.1)
+    f = FilterUnderTest(GS, conflict_table.s_stop, 0.1)
     for when in sorted(set(entered.values())):
         world = make_world(paths, when, veh)
         world.role = ["passing" if entered[v[0]] <= when else "ready" for v in veh]
@@ -58,7 +59,7 @@ def _filter_with_entries(paths, conflict_table, veh, entered):
 
 def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, movements, conflict_table):
     """Both hold 8 m/s and reach their crossing about together: the one ranked lower (the later
-    by time to the zone) cannot stop at its stop line any more and stops 1 m (safety_margin)
+    by time to the zone) cannot stop at its stop line any more and stops 1 m (margin)
     before its zone; the other keeps its plan."""
     t = conflict_table
     p, q = t.index[LEFT], t.index[STRAIGHT]
@@ -66,13 +67,13 @@ def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, mo
     world = make_world(paths, 0.0, [("L", LEFT, s_l, 8.0), ("S", STRAIGHT, s_s, 8.0)])
     hold = np.zeros(PROBLEM.steps)
     plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
     d = Decisions(accel={"L": 0.0, "S": 0.0})
     held = f.apply(world, _relations(world, movements, t), plans, {}, d)
     assert d.accel["L"] == 0.0
-    to_line = float(t.s_stop[q]) - GS.safety_margin - s_s  # [m] 4.25 m: would need -7.5 m/s^2
+    to_line = float(t.s_stop[q]) - GS.margin - s_s  # [m] 4.25 m: would need -7.5 m/s^2
     assert -8.0 ** 2 / (2 * to_line) < PROBLEM.a_min
-    to_zone = float(t.zone_in[q, p]) - GS.safety_margin - s_s  # [m] 16 m: it stops before its zone
+    to_zone = float(t.zone_in[q, p]) - GS.margin - s_s  # [m] 16 m: it stops before its zone
     assert d.accel["S"] == pytest.approx(-8.0 ** 2 / (2 * to_zone), rel=1e-9)  # -2 m/s^2
     assert held == {"S"} and f.filtered == 1 and f.cleared == 0
 
@@ -89,11 +90,11 @@ def test_under_position_noise_a_yielding_vehicle_stops_short_of_its_zone_by_the_
     hold = np.zeros(PROBLEM.steps)
     plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
     slack = 3.0 * np.sqrt(2.0) * 0.2  # [m]
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, gap_slack=slack)
+    f = FilterUnderTest(GS, t.s_stop, 0.1, gap_slack=slack)
     d = Decisions(accel={"L": 0.0, "S": 0.0})
     relations = _relations(world, movements, t)
     f.apply(world, relations, plans, {}, d)
-    to_zone = float(t.zone_in[q, p]) - slack - GS.safety_margin - s_s  # [m]
+    to_zone = float(t.zone_in[q, p]) - slack - GS.margin - s_s  # [m]
     assert d.accel["L"] == 0.0 and d.accel["S"] == pytest.approx(-8.0 ** 2 / (2 * to_zone), rel=1e-9)
     assert relations.pairs.zone_i[0, 0] == pytest.approx(_relations(world, movements, t).pairs.zone_i[0, 0])  # not mutated
 
@@ -108,7 +109,7 @@ def test_the_entry_queue_and_the_box_rule(paths, movements, conflict_table):
     s_b = 0.5 * (t.zone_in[q, p] + t.zone_out[q, p])  # B in the middle of its zone
     s_a = t.zone_in[p, q] - 3.0  # A 3 m before its zone, inside the junction
     assert s_a > t.s_stop[p]
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
     world = _entered_in_order(f, paths, [("A", a_path, s_a, 2.0), ("B", b_path, s_b, 0.0)], first="B")
     assert f.entered == {"B": 1.0, "A": 5.0}
     plans = {"A": Plan.from_accelerations(s_a, 2.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
@@ -136,7 +137,7 @@ def test_a_vehicle_with_weak_brakes_is_guarded_by_its_own_decel(paths, movements
     hold = np.zeros(PROBLEM.steps)
     plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
     d = Decisions(accel={"L": 0.0, "S": 0.0})
-    held = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1).apply(world, _relations(world, movements, t), plans, {}, d)
+    held = FilterUnderTest(GS, t.s_stop, 0.1).apply(world, _relations(world, movements, t), plans, {}, d)
     assert d.accel["S"] == 0.0 and d.accel["L"] < 0.0 and held == {"L"}
 
     lane = "south_middle_straight_middle"
@@ -147,8 +148,8 @@ def test_a_vehicle_with_weak_brakes_is_guarded_by_its_own_decel(paths, movements
         plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), hold, PROBLEM.dt)
                  for k, v in enumerate(world.ids)}
         d = Decisions(accel={"lead": 0.0, "follow": 2.5})
-        SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1).apply(world, _relations(world, movements, t), plans, {}, d)
-        gap = 10.0 - MODEL.vehicle_length - GS.safety_margin  # [m]
+        FilterUnderTest(GS, t.s_stop, 0.1).apply(world, _relations(world, movements, t), plans, {}, d)
+        gap = 10.0 - MODEL.vehicle_length - GS.margin  # [m]
         v_safe = -decel * 0.1 + np.sqrt((decel * 0.1) ** 2 + 2 * decel * gap)  # [m/s]: 5.6 at b = 4, 4.05 at b = 2
         assert d.accel["follow"] == pytest.approx(min(2.5, (v_safe - 4.0) / 0.1))
         assert (d.accel["follow"] < 1.0) == capped
@@ -160,13 +161,13 @@ def test_a_follower_is_capped_at_krauss_safe_speed(paths, movements, conflict_ta
     lane = "south_middle_straight_middle"
     s_stop = paths[lane].s_stop
     world = make_world(paths, 0.0, [("lead", lane, s_stop - 30.0, 0.0), ("follow", lane, s_stop - 40.0, 8.0)])
-    f = SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, 0.1)
+    f = FilterUnderTest(GS, conflict_table.s_stop, 0.1)
     plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(PROBLEM.steps), PROBLEM.dt)
              for k, v in enumerate(world.ids)}
     d = Decisions(accel={"lead": 0.0, "follow": 0.0})
     held = f.apply(world, _relations(world, movements, conflict_table), plans, {}, d)
     b, tau = -PROBLEM.a_min, 0.1
-    gap = 10.0 - MODEL.vehicle_length - GS.safety_margin  # [m]
+    gap = 10.0 - MODEL.vehicle_length - GS.margin  # [m]
     v_safe = -b * tau + np.sqrt((b * tau) ** 2 + 2 * b * gap)
     assert d.accel["follow"] == pytest.approx(max((v_safe - 8.0) / tau, PROBLEM.a_min))
     assert d.accel["lead"] == 0.0 and held == frozenset()  # behind a leader is not held at a crossing
@@ -192,10 +193,10 @@ def test_behind_an_emergency_stop_a_follower_brakes_beyond_its_decel_only_as_har
         plans = {v: Plan.from_accelerations(float(world.s[k]), float(world.v[k]), hold, PROBLEM.dt)
                  for k, v in enumerate(world.ids)}
         d = Decisions(accel={"lead": -b_lead, "follow": 0.0})
-        SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, tau).apply(
+        FilterUnderTest(GS, conflict_table.s_stop, tau).apply(
             world, _relations(world, movements, conflict_table), plans, {}, d, floors={"lead": -b_lead})
         out[name] = d.accel["follow"]
-    gap = 8.0 - MODEL.vehicle_length - GS.safety_margin  # [m] bumper to bumper, less the margin
+    gap = 8.0 - MODEL.vehicle_length - GS.margin  # [m] bumper to bumper, less the margin
 
     def v_safe(decel):  # [m/s] Krauss behind a leader braking at b_lead
         return -decel * tau + np.sqrt((decel * tau) ** 2 + decel / b_lead * 6.0 ** 2 + 2 * decel * gap)
@@ -220,10 +221,10 @@ def test_the_gap_to_a_leader_allows_for_the_links_position_noise(paths, movement
     b, tau = -PROBLEM.a_min, 0.1
     caps = []
     for slack in (0.0, 3.0 * np.sqrt(2.0) * 0.2):
-        f = SafetyFilter(GS, PROBLEM, MODEL, conflict_table.s_stop, 0.1, gap_slack=slack)
+        f = FilterUnderTest(GS, conflict_table.s_stop, 0.1, gap_slack=slack)
         d = Decisions(accel={"lead": 0.0, "follow": 2.0})
         f.apply(world, _relations(world, movements, conflict_table), plans, {}, d)
-        gap = 7.0 - MODEL.vehicle_length - GS.safety_margin - slack  # [m]
+        gap = 7.0 - MODEL.vehicle_length - GS.margin - slack  # [m]
         v_safe = -b * tau + np.sqrt((b * tau) ** 2 + 2 * b * gap)
         assert d.accel["follow"] == pytest.approx(min(2.0, (v_safe - 2.0) / tau))
         caps.append(d.accel["follow"])
@@ -271,7 +272,7 @@ def test_a_turner_standing_with_its_rear_in_a_crossing_still_holds_the_other(pat
         s_l += 0.25  # the last front (to 0.25 m) at which L is in S's way
     assert s_l > t.s_a[p, q] + length  # several metres past the crossing point
     s_s = float(t.s_stop[q]) - 3.0  # [m]
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
     world = make_world(paths, 5.0, [("L", LEFT, s_l, 0.0), ("S", STRAIGHT, s_s, 2.0)])
     world.role = ["passing", "ready"]
     f.record_entries(world)
@@ -279,7 +280,7 @@ def test_a_turner_standing_with_its_rear_in_a_crossing_still_holds_the_other(pat
              "S": Plan.from_accelerations(s_s, 2.0, np.full(PROBLEM.steps, 2.5), PROBLEM.dt)}
     d = Decisions(accel={"L": 0.0, "S": 2.5})
     held = f.apply(world, _relations(world, movements, t), plans, {}, d)
-    to_line = float(t.s_stop[q]) - GS.safety_margin - s_s  # [m] 2 m
+    to_line = float(t.s_stop[q]) - GS.margin - s_s  # [m] 2 m
     assert d.accel["S"] == pytest.approx(-2.0 ** 2 / (2 * to_line), rel=1e-9)  # -1 m/s^2, at its line
     assert "S" in held
     assert d.accel["L"] == pytest.approx(GS.clear_accel)  # and L, standing in the crossing, drives out
@@ -317,11 +318,11 @@ def test_at_a_merge_a_follower_level_with_a_leader_turning_in_waits(paths, movem
 
 @pytest.mark.parametrize("games, braked", [(frozenset({("L", "S")}), False), (frozenset(), True)])
 def test_a_pair_in_a_game_keeps_only_its_share_of_the_time_gap(paths, movements, conflict_table, games, braked):
-    """S's plan enters its zone 0.35 s after L's has left it: inside the 0.5 s safety_time_gap,
+    """S's plan enters its zone 0.35 s after L's has left it: inside the 0.5 s time_gap,
     outside the 0.2 s (game_gap_share 0.4) a pair keeps that plays its game this step. So the
     filter leaves that pair's plans alone and brakes S when they play none (no trigger, or a
     fallback step); a guarded pair of AVs is an event."""
-    from intersection_cosim.control.safety import occupancy
+    from intersection_cosim.control.safety.kinematics import occupancy
     t = conflict_table
     p, q = t.index[LEFT], t.index[STRAIGHT]
     hold = np.zeros(PROBLEM.steps)
@@ -332,9 +333,9 @@ def test_a_pair_in_a_game_keeps_only_its_share_of_the_time_gap(paths, movements,
     plans = {"L": Plan.from_accelerations(s_l, 8.0, hold, PROBLEM.dt), "S": Plan.from_accelerations(s_s, 8.0, hold, PROBLEM.dt)}
     in_s = occupancy(plans["S"], float(t.zone_in[q, p]), float(t.zone_out[q, p]))[0]
     assert 0.2 < in_s - out_l < 0.5
-    f = SafetyFilter(SafetySettings(game_gap_share=0.4), PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(SafetySettings(game_gap_share=0.4), t.s_stop, 0.1)
     d = Decisions(accel={"L": 0.0, "S": 0.0})
-    f.apply(world, _relations(world, movements, t), plans, {}, d, None, games)
+    f.apply(world, _relations(world, movements, t), plans, {}, d, games)
     assert d.accel["L"] == 0.0
     assert (d.accel["S"] < -0.5) == braked and f.filtered == int(braked)
     assert f.events == ({("L", "S")} if braked else set())
@@ -355,7 +356,7 @@ def test_under_position_noise_a_vehicle_read_inside_the_widened_zone_still_stays
     s_b = 0.5 * float(t.zone_in[q, p] + t.zone_out[q, p])  # [m] B in the middle of its zone
     assert s_a > t.s_stop[p]
     slack = 3.0 * np.sqrt(2.0) * 0.2  # [m] > 0.5 m: A's reading is inside the widened zone
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1, gap_slack=slack)
+    f = FilterUnderTest(GS, t.s_stop, 0.1, gap_slack=slack)
     world = _entered_in_order(f, paths, [("A", a_path, s_a, 0.0), ("B", b_path, s_b, 0.0)], first="A")
     assert f.entered == {"A": 1.0, "B": 5.0}
     plans = {"A": Plan.from_accelerations(s_a, 0.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt),
@@ -380,7 +381,7 @@ def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_st
     assert x_in - y_out >= 0.5  # [m] room to stand between the two zones
     s_b = 0.5 * (t.zone_in[qb, p] + t.zone_out[qb, p])  # [m] B in the middle of its zone with K
     s_a = t.zone_in[qa, p] - 3.0  # [m] A 3 m before its zone with K, at 3 m/s (there in 1 s)
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
     s_k, v_k = y_out - 0.5, 0.0  # [m], [m/s]
     order = ("B", "K", "A")  # into the junction at t = 0, 1, 2 s
     for step in range(len(order)):
@@ -425,8 +426,8 @@ def test_a_vehicle_standing_in_the_first_ones_crossing_goes_before_the_vehicles_
     zone = {(a[0], b[0]): (float(t.zone_in[t.index[a[1]], t.index[b[1]]]), float(t.zone_out[t.index[a[1]], t.index[b[1]]]))
             for a in veh for b in veh if a != b}  # [m] on the first one's path
     assert zone["T", "L"][0] <= 142.0 < zone["T", "L"][1]  # T stands in its crossing with L ...
-    assert zone["T", "S"][0] - GS.safety_margin == pytest.approx(142.0)  # ... where it waits for S
-    assert zone["L", "T"][0] - 150.70 < GS.safety_margin  # L short of its zone with T
+    assert zone["T", "S"][0] - GS.margin == pytest.approx(142.0)  # ... where it waits for S
+    assert zone["L", "T"][0] - 150.70 < GS.margin  # L short of its zone with T
     f = _filter_with_entries(paths, t, veh, entered)  # S and T entered in the same step
     world = make_world(paths, 392.05, veh)
     world.role = ["passing"] * 4
@@ -458,9 +459,9 @@ def test_a_blocker_that_inherits_a_rank_goes_before_the_vehicle_it_blocks_at_a_m
     zone = {(a, b): (float(t.zone_in[idx[a], idx[b]]), float(t.zone_out[idx[a], idx[b]]))
             for a in idx for b in idx if a != b and t.kind[idx[a], idx[b]] == 2}  # [m] cross zones
     assert zone["E", "S"][0] <= 147.0 < zone["E", "S"][1]  # E stands in its crossing with S ...
-    assert zone["E", "W"][0] - GS.safety_margin == pytest.approx(147.0)  # ... waiting for W
+    assert zone["E", "W"][0] - GS.margin == pytest.approx(147.0)  # ... waiting for W
     assert zone["W", "E"][0] <= 155.1552 < zone["W", "E"][1]  # W stands in its crossing with E
-    assert zone["S", "E"][0] - GS.safety_margin == pytest.approx(150.0)  # S waits for E
+    assert zone["S", "E"][0] - GS.margin == pytest.approx(150.0)  # S waits for E
     assert t.kind[idx["W"], idx["S"]] == 3  # W and S merge into the north exit's middle lane
     f = _filter_with_entries(paths, t, veh, entered)
     world = make_world(paths, 276.05, veh)
@@ -497,7 +498,7 @@ def test_a_stalled_box_takes_no_new_entrant_into_its_crossings(paths, movements,
     b_plan = braking_plan(Plan.from_accelerations(s_b, v_b, np.zeros(PROBLEM.steps), PROBLEM.dt), a_b)
     result = {}
     for on in (True, False):
-        f = SafetyFilter(dataclasses.replace(GS, stalled_box_hold=on), PROBLEM, MODEL, t.s_stop, 0.1)
+        f = FilterUnderTest(dataclasses.replace(GS, stalled_box_hold=on), t.s_stop, 0.1)
         world = make_world(paths, 1.0, [("A", LEFT, s_a, 5.0), ("B", STRAIGHT, s_b, v_b)])
         world.role, world.a = ["ready", "passing"], np.array([1.0, a_b])
         f.record_entries(world)
@@ -508,7 +509,7 @@ def test_a_stalled_box_takes_no_new_entrant_into_its_crossings(paths, movements,
         result[on] = (d.accel["A"], "A" in out, d.accel["B"])
     if held:
         assert result[False] == (1.0, False, b_plan.accelerations[0])
-        stop = to_line - GS.safety_margin  # [m] 7 m
+        stop = to_line - GS.margin  # [m] 7 m
         assert result[True][0] == pytest.approx(-5.0 ** 2 / (2 * stop), rel=1e-9) and result[True][1]
         assert result[True][2] == GS.clear_accel  # B, waited for, drives on (its plan stood)
     else:
@@ -526,7 +527,7 @@ def test_a_stalled_box_does_not_hold_an_entrant_already_inside_a_crossing_zone(p
     s_e, s_r = 157.71, 137.95  # [m], as in the run
     result = {}
     for on in (True, False):
-        f = SafetyFilter(dataclasses.replace(GS, stalled_box_hold=on), PROBLEM, MODEL, t.s_stop, 0.1)
+        f = FilterUnderTest(dataclasses.replace(GS, stalled_box_hold=on), t.s_stop, 0.1)
         world = make_world(paths, 1.0, [("E", e_path, s_e, 0.0), ("R", r_path, s_r, 0.0)])
         world.role = ["passing", "ready"]
         f.record_entries(world)
@@ -553,7 +554,7 @@ def test_a_vehicle_already_in_the_crossing_drives_out_when_neither_can_yield(pat
     t = conflict_table
     n_path, e_path = "north_outer_straight_outer", "east_outer_straight_outer"
     p, q = t.index[n_path], t.index[e_path]
-    f = SafetyFilter(GS, PROBLEM, MODEL, t.s_stop, 0.1)
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
     veh = [("N", n_path, 144.73, 2.29), ("E", e_path, float(t.zone_in[q, p]) - 2.0, 8.0)]
     for when, roles in ((234.25, ["ready", "passing"]), (234.75, ["passing", "passing"])):
         world = make_world(paths, when, veh)

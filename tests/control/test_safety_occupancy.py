@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from intersection_cosim.control.safety import braking_plan, occupancy, occupancy_times, reach_times
+from intersection_cosim.control.safety.kinematics import braking_plan, occupancy, occupancy_times, reach_times
 from intersection_cosim.games.problem import Plan
 
 
@@ -78,7 +78,7 @@ def test_the_vectorised_first_look_changes_no_decision(paths, net_file, seed, mo
     with the per-pair guard alone: the same accelerations, bit for bit."""
     import time
 
-    from intersection_cosim.control.safety import filter as safety
+    from intersection_cosim.control.safety.rules import crossing_order as safety
     from intersection_cosim.control.base import ControlContext
     from intersection_cosim.control.game.controller import GameController
     from intersection_cosim.models.settings import ModelSettings

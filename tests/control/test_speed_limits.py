@@ -7,7 +7,7 @@ import pytest
 
 from intersection_cosim.control.base import ControlContext
 from intersection_cosim.control.game.controller import GameController
-from intersection_cosim.control.speed_limits import lane_speed_holds, limit_acceleration
+from intersection_cosim.control.safety.speed_limits import lane_speed_holds, limit_acceleration
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.movements import paper_movements
 from tests.control.conftest import make_world

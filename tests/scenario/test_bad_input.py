@@ -69,7 +69,7 @@ CASES = [
     ("a game key in the solver table", HEADER + '[controller]\nkind = "nash"\n[controller.solver]\nhorizon = 4.0\n'
      + GOOD_VEHICLE, "controller.solver.horizon", "4.0: moved to [controller.game]"),
     ("a safety key in the policy table", HEADER + '[controller]\nkind = "nash"\n[controller.policy]\n'
-     'safety_margin = 2.0\n' + GOOD_VEHICLE, "controller.policy.safety_margin", "2.0: moved to [controller.safety]"),
+     'margin = 2.0\n' + GOOD_VEHICLE, "controller.policy.margin", "2.0: moved to [controller.safety]"),
     ("a policy key in the solver table", HEADER + '[controller]\nkind = "stackelberg"\n[controller.solver]\n'
      'solo_max_iter = 2\n' + GOOD_VEHICLE, "controller.solver.solo_max_iter", "2: moved to [controller.policy]"),
     ("a negative solo_reuse_residual", HEADER + '[controller]\nkind = "nash"\n[controller.policy]\n'

@@ -62,7 +62,7 @@ def test_the_game_controllers_tables_set_their_settings():
     data = {"scenario": {"name": "t", "duration": 5.0},
             "controller": {"kind": "stackelberg", "game": {"horizon": 4.0}, "solver": {"nash_tol": 0.02},
                            "policy": {"lane_choice_period": 3, "solo_reuse_residual": 0.0,
-                                      "solo_position_tol": 0.2}, "safety": {"safety_time_gap": 0.7}},
+                                      "solo_position_tol": 0.2}, "safety": {"time_gap": 0.7}},
             "vehicle": [{"id": "V1", "approach": "south", "lane": "inner", "distance": 13.0, "movement": "left",
                          "speed": 5.5, "kappa": 0.5}]}
     settings = scenario_from_dict(data).controller_settings
@@ -72,7 +72,7 @@ def test_the_game_controllers_tables_set_their_settings():
     assert settings.solver.nash_tol == 0.02 and settings.policy.lane_choice_period == 3
     assert (settings.policy.solo_reuse_residual, settings.policy.solo_position_tol) == (0.0, 0.2)
     assert settings.policy.solo_speed_tol == default.policy.solo_speed_tol
-    assert settings.safety.safety_time_gap == 0.7 and settings.safety.safety_margin == default.safety.safety_margin
+    assert settings.safety.time_gap == 0.7 and settings.safety.margin == default.safety.margin
     assert settings.games.problem is settings.game and settings.games.solver is settings.solver
 
 

@@ -60,9 +60,10 @@ from typing import NamedTuple
 import numpy as np
 
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
-from intersection_cosim.control.exit_room import exit_room_caps
+from intersection_cosim.control.safety.exit_room import exit_room_caps
 from intersection_cosim.control.baselines.reservations import FcfsSettings, Grant, Reservations, time_to_cover
-from intersection_cosim.control.safety import krauss_safe_speed, stopping_acceleration
+from intersection_cosim.control.safety.kinematics import stopping_acceleration
+from intersection_cosim.control.safety.onboard import krauss_safe_speed
 from intersection_cosim.network.conflicts import (
     KIND_CONFLUENCE,
     KIND_CROSS,

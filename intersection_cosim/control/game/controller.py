@@ -26,7 +26,7 @@ Every control period, for the vehicles that are ready to enter or passing the co
 6. **Anytime step** (control/game/anytime.py): work that would not finish before the budget less
    what the safety filter needs (``anytime_reserve``, or twice its measured time) is deferred
    and its vehicles keep their last plan, shifted.
-7. **Safety filter** (control/safety.py) checks every acceleration, fresh or kept.
+7. **Safety filter** (control/safety/) checks every acceleration, fresh or kept.
 
 Decisions are written back as accelerations (held over the period; the adapter turns them into
 exact speed commands) and exit lanes (enforced by the adapter when the vehicle enters the
@@ -37,7 +37,7 @@ game and are never commanded. A human leader enters its AV follower's J_log as a
 speed) trajectory, and a human of a triggered crossing enters the AV's J_lat with its forecast
 fixed (``Player.crossers``, control/game/players.py); the safety filter guards the crossing, predicting
 the human by :func:`~intersection_cosim.models.prediction.human_accelerations`, and never lets
-the AV claim it against the human (control/safety.py).
+the AV claim it against the human (control/safety/).
 """
 
 from __future__ import annotations
@@ -55,11 +55,12 @@ from intersection_cosim.control.base import ControlContext, Decisions, Diagnosti
 from intersection_cosim.control.game.lane_options import LaneChangeCosts, lane_options
 from intersection_cosim.control.game.events import in_force, playing
 from intersection_cosim.control.game.game_reuse import GameReuse
-from intersection_cosim.control.game.holds import step_holds
 from intersection_cosim.control.game.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
 from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.game.relations import Relations, TriggerHold, step_relations
-from intersection_cosim.control.safety import SafetyFilter, occupancy_times
+from intersection_cosim.control.safety.context import GuardedJunction
+from intersection_cosim.control.safety.filter import SafetyFilter
+from intersection_cosim.control.safety.kinematics import occupancy_times
 from intersection_cosim.control.game.solo import SoloPlanner
 from intersection_cosim.games.nash import nash_equilibrium
 from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
@@ -127,7 +128,6 @@ class GameController:
         self._events: set[tuple[str, str]] = set()
         # sorted vehicle-id pairs that played at the last step (PolicySettings.trigger_hold_gap)
         self._played: frozenset[tuple[str, str]] = frozenset()
-        self.pedestrian_holds = 0  # control steps x vehicles held back for a pedestrian
 
     # ------------------------------------------------------------------ setup
     def setup(self, context: ControlContext) -> None:
@@ -140,9 +140,7 @@ class GameController:
         if context.bodies:  # the areas other bodies sweep, built before the first step needs them
             self.table.warm(context.bodies)
         longest = max([context.model.vehicle_length] + [length for length, _ in context.bodies])  # [m]
-        self.pedestrian_holds = 0
-        self.crossing_zones = crossing_zones(context.movements, movement_crossings(context.movements), longest,
-                                             context.touch_width)
+        zones = crossing_zones(context.movements, movement_crossings(context.movements), longest, context.touch_width)
         shift = max(1, int(round(context.control_period / game.dt)))
         self.memory = PlanMemory(shift, context.control_period, game.steps, game.dt, game.a_max, context.model.v_max)
         lane_costs = LaneChangeCosts(context.movements, context.model)
@@ -150,11 +148,11 @@ class GameController:
                                  lane_costs, context.movements, _capped(self.settings))
         self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.movements)
         self.reuse = GameReuse(self.settings.policy, self.memory, context.model.v_max)
-        self.safety = SafetyFilter(self.settings.safety, game, self.model, self.table.s_stop,
-                                   context.control_period, self.table.s_wait,
-                                   {pid: (context.paths[pid].s_wait, lanes)
-                                    for pid, lanes in waiting_watches(context.movements).items()},
-                                   gap_slack=3.0 * math.sqrt(2.0) * context.position_noise)
+        waits = {pid: (context.paths[pid].s_wait, lanes) for pid, lanes in waiting_watches(context.movements).items()}
+        self.safety = SafetyFilter(GuardedJunction(
+            self.settings.safety, game, self.model, context.movements, self.table.s_stop, self.table.s_wait, waits,
+            context.control_period, gap_slack=3.0 * math.sqrt(2.0) * context.position_noise, crossing_zones=zones))
+        self._stall_held: frozenset[str] = frozenset()  # held at their stop lines for a stalled box, last step
         self.schedule = AnytimeSchedule()
         reset_workspaces()
         self._warm_up()
@@ -174,7 +172,8 @@ class GameController:
         Plan.from_accelerations(0.0, 5.0, np.zeros(self.solver.settings.problem.steps), self.solver.settings.problem.dt)
 
     def diagnostics(self) -> Diagnostics:
-        return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared, self.pedestrian_holds)
+        return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared,
+                           self.safety.pedestrian_holds)
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
@@ -310,15 +309,16 @@ class GameController:
             decisions.exit_lane[vid] = option
 
     def _filter(self, world: World, relations: Relations, decisions: Decisions) -> None:
-        if self.settings.safety.safety_filter:
+        if self.settings.safety.enabled:
             # the pairs that play their game (none in a fallback step: stale plans)
             games = frozenset() if decisions.fallback else playing(world, relations)
-            holds, floors = self._holds(world, relations)
-            held = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions,
-                                     holds, games, floors)
-            self._held = self._held | held
+            result = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions.accel,
+                                       games)
+            decisions.accel.update(result.accel)
+            self._held = self._held | result.held
+            self._stall_held = result.stall_held
             if self.settings.policy.filter_event:
-                self._events |= self.safety.events
+                self._events |= result.events
                 self._events = self._live_events(world)
 
     def _live_events(self, world: World) -> set[tuple[str, str]]:
@@ -333,14 +333,7 @@ class GameController:
 
     def _in_force(self, world: World, pairs) -> set[tuple[str, str]]:
         """``pairs`` still in force (control/game/events.py, :func:`in_force`)."""
-        return in_force(world, pairs, self.safety.entered, self.safety.stall_held, self.settings.safety.clear_speed)
-
-    def _holds(self, world: World, relations: Relations) -> tuple[dict[str, float], dict[str, float]]:
-        """[m/s^2] the caps per vehicle and the emergency-stop floors of this step
-        (control/game/holds.py), counting the pedestrian holds."""
-        step = step_holds(world, relations, self.ctx, self.settings, self.model, self.memory, self.crossing_zones)
-        self.pedestrian_holds += step.pedestrian_holds
-        return step.holds, step.floors
+        return in_force(world, pairs, self.safety.entered, self._stall_held, self.settings.safety.clear_speed)
 
     def fallback(self, world: World) -> Decisions:
         """The last applied plan shifted by one period (comfortable braking where there is none),

@@ -11,15 +11,14 @@ a leader is shortened by it, so the rules' invariants hold for the true position
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.plan_memory import human_forecast
-from intersection_cosim.control.relations import Relations
+from intersection_cosim.control.game.plan_memory import human_forecast
+from intersection_cosim.control.game.relations import Relations
 from intersection_cosim.control.safety.kinematics import creep_acceleration, stopping_acceleration, zone_exit
 from intersection_cosim.control.safety.kinematics import CREEP_CLEARANCE
 from intersection_cosim.control.safety.settings import SafetySettings
@@ -172,7 +171,7 @@ class StepContext:
         out of it and stands between the two. None if it cannot stay out any more. Under position
         noise a vehicle read inside the widened zone that can still stop short of the zone itself
         stops as soon as it can."""
-        a = self._stay_out(k, s_stop, enter, margin, own)
+        a = self.stop_short_of(k, s_stop, enter, margin, own)
         slack = self.junction.gap_slack
         if a is not None or slack <= 0.0:
             return a
@@ -182,7 +181,8 @@ class StepContext:
             return None
         return max(brake, -v_k / self.junction.period)
 
-    def _stay_out(self, k: int, s_stop: float, enter: float, margin: float, own: tuple | None) -> float | None:
+    def stop_short_of(self, k: int, s_stop: float, enter: float, margin: float, own: tuple | None = None) -> float | None:
+        """:meth:`stay_out` without the allowance for position noise."""
         st = self.settings
         s_k, v_k = float(self.world.s[k]), float(self.world.v[k])
         if s_k >= enter:

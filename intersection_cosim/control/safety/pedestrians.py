@@ -1,38 +1,26 @@
-"""Yielding to pedestrians at the crossings of a managed junction (not in the paper).
+"""Yielding to pedestrians at the crossings of a managed junction: the windows of time in which a
+pedestrian and a vehicle are on the vehicle's stretch of a crossing, and the braking that keeps
+the vehicle out of it (the ``pedestrians`` rule, rules/pedestrians.py, which states the invariant).
 
-The controllers command their vehicles with SUMO's right-of-way checks switched off, so SUMO no
-longer stops them for a person on a zebra crossing. This rule does, as a careful driver does: a
-controlled vehicle that has not yet reached a crossing on its path (network/crossings.py) stays
-out of it while a pedestrian is on, or walks onto, the stretch of the crossing its body would
-cover, within ``pedestrian_time_gap`` of when the vehicle would be there:
-
-* the vehicle's time over the crossing is its plan's (from its front reaching the zone to its
-  front leaving it: safety.occupancy); where its plan does not reach the crossing, from its
-  earliest arrival (at full acceleration); a leaving beyond the plan's end is reckoned on from
-  there, at its speed or, if sooner, at full acceleration (:func:`vehicle_window`);
-* a pedestrian's runs from its reaching the vehicle's stretch at its speed, or at
+* The vehicle's time over the crossing is its plan's (from its front reaching the zone to its
+  front leaving it); where its plan does not reach the crossing, from its earliest arrival (at full
+  acceleration); a leaving beyond the plan's end is reckoned on from there, at its speed or, if
+  sooner, at full acceleration (:func:`vehicle_window`).
+* A pedestrian's runs from its reaching the vehicle's stretch at its speed, or at
   ``pedestrian_speed_high`` if it is slower (a person may speed up), to its leaving it at its
   speed, at least ``pedestrian_speed_low`` (a standing person walks on at that speed); one that
-  has passed the stretch, walking away, is clear;
-* nor does it enter a crossing that people walk on or towards while its leader stands less
-  than ``safety_margin`` past it (it would have to stop on the crossing, where the people walk
-  into it: SUMO's collision check, 4 in 3 seeds of fokr38_pedestrians_medium);
-* the vehicle waits at its stop line if it has not reached it (it enters the junction only to
-  clear it), else stops ``pedestrian_margin`` before the crossing; it brakes from the last moment
-  at which ``brake_from`` [m/s^2] still stops it there after one more period at full
-  acceleration (a vehicle that started braking at the first sight of a person far ahead crawled
-  through the junction for 40 s);
-* if it can no longer stop before the crossing within its own braking but a person may be on
-  its stretch while it is (the windows overlap, without the time gap), it makes an emergency stop
-  at up to its vType's emergencyDecel (a vehicle SUMO inserts a few metres before a crossing a
-  person walks over: Ingolstadt's junction 335525545) at the crossing's edge, or at most
-  ``EDGE_DEPTH`` into its zone; a vehicle already in that edge with such a person stops there
-  (a V2X link's position noise reads one standing at the edge as inside); otherwise, and deeper
-  in the zone, it drives on (braking then would leave it standing on the crossing).
-
-Every exit lane the vehicle may still take counts. The caps go to the safety filter as holds, as
-the exit-room and lane speed caps do (control/safety.py), so the crossings see the braking
-vehicle.
+  has passed the stretch, walking away, is clear.
+* A vehicle does not enter a crossing that people walk on or towards while its leader stands less
+  than ``margin`` past it (it would have to stop on the crossing).
+* The vehicle waits at its stop line if it has not reached it, else stops ``pedestrian_margin``
+  before the crossing; it brakes from the last moment at which ``brake_from`` [m/s^2] still stops
+  it there after one more period at full acceleration (braking at the first sight of a person far
+  ahead would have it crawl through the junction).
+* If it can no longer stop before the crossing within its own braking but a person may be on its
+  stretch while it is, it makes an emergency stop at up to its vType's emergencyDecel at the
+  crossing's edge, or at most ``EDGE_DEPTH`` into its zone; a vehicle already in that edge with
+  such a person stops there (position noise reads one standing at the edge as inside); deeper in
+  the zone it drives on (braking then would leave it standing on the crossing).
 """
 
 from __future__ import annotations
@@ -41,7 +29,7 @@ import math
 from typing import Mapping
 
 from intersection_cosim.control.base import Walker, World
-from intersection_cosim.control.safety import occupancy, stopping_acceleration
+from intersection_cosim.control.safety.kinematics import occupancy, stopping_acceleration
 from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.network.crossings import CrossingZone
@@ -146,7 +134,7 @@ def _zone_hold(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | N
     s = float(world.s[k])
     if s >= zone.zone_in:  # in the zone: it drives on, unless it can stop at the edge short of a person
         return _edge_stop(world, k, zone, walkers, plan, settings, speed_floor, limits, period)
-    blocked = (lead is not None and lead[0] < zone.zone_out + settings.safety_margin
+    blocked = (lead is not None and lead[0] < zone.zone_out + settings.margin
                and lead[1] < settings.clear_speed and bool(walkers))
     conflict = _conflict(world, k, zone, walkers, plan, settings, speed_floor, limits[1])
     if not (blocked or conflict):
@@ -200,12 +188,12 @@ def _conflict(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | No
 def _stay_out(s: float, v: float, s_stop: float, enter: float, settings: SafetySettings,
               limits: tuple[float, float], brake_from: float, period: float) -> float | None:
     """[m/s^2] the acceleration that stops a vehicle at ``s`` [m], ``v`` [m/s] at its stop line
-    ``s_stop`` less ``safety_margin`` if it can, else ``pedestrian_margin`` before the crossing
+    ``s_stop`` less ``margin`` if it can, else ``pedestrian_margin`` before the crossing
     at ``enter`` [m], else at its edge, with its ``limits`` (braking, acceleration) [m/s^2]:
     inf while it need not brake yet (module docstring); standing at most ``STAND_REACH`` before
     it, it stays; None if it can no longer stop before the crossing."""
     brake, accel = limits
-    for target in (s_stop - settings.safety_margin, enter - settings.pedestrian_margin, enter - 0.05):
+    for target in (s_stop - settings.margin, enter - settings.pedestrian_margin, enter - 0.05):
         if target <= s or target > enter:
             continue
         if v < STAND_SPEED and target - s <= STAND_REACH:

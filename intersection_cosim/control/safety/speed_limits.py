@@ -1,7 +1,7 @@
 """Lane speed limits, enforced: a controlled vehicle enters a lane no faster than its limit.
 
 With ``ModelSettings.lane_speed_limits`` the players plan with the limit in force where they are
-as their v_max (control/relations.py, :func:`lane_speed_caps`), which J_e only pulls towards
+as their v_max (control/game/relations.py, :func:`lane_speed_caps`), which J_e only pulls towards
 (a plan starting faster may keep its speed). These caps make the limit hold, as SUMO's drivers
 keep it: a vehicle that would reach a lane with a lower limit too fast brakes from the last
 moment at which ``decel`` [m/s^2] still slows it to the limit at the lane's start, one control

@@ -16,7 +16,7 @@ from __future__ import annotations
 from typing import Mapping
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.safety import stopping_acceleration
+from intersection_cosim.control.safety.kinematics import stopping_acceleration
 from intersection_cosim.network.movements import Movements
 
 
