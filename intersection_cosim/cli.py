@@ -243,7 +243,10 @@ def _cmd_run(args) -> int:
         gui = GuiSettings(delay_ms=args.gui_delay)
     summary = run_scenario(scn, out, force=args.force, gui=gui)
     c = summary["counts"]
-    print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions, "
+    k = summary["collisions"]
+    print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions "
+          f"({k['sumo_pairs_commanded']} pairs with a controlled vehicle, {k['sumo_pairs_uncommanded']} without; "
+          f"our overlap check: {k['overlap_pairs_commanded']} / {k['overlap_pairs'] - k['overlap_pairs_commanded']}), "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
     if (end := summary.get("ended_early")) is not None:
         why = (f"all {end['vehicles']} vehicles in the network stood still from t={end['since']:.1f} s (a deadlock)"

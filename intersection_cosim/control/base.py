@@ -183,7 +183,7 @@ class Diagnostics:
     ``safety_interventions``: [-] commanded accelerations the safety filter lowered.
     ``box_rule_clearances``: [-] accelerations the safety filter raised so a vehicle clears a
     crossing it has entered (the box rule). ``pedestrian_holds``: [-] control steps x vehicles
-    held back for a pedestrian at a crossing (control/pedestrians.py). All three None for a
+    held back for a pedestrian at a crossing (control/safety/pedestrians.py). All three None for a
     controller without that filter (summary.json then records null).
     """
 

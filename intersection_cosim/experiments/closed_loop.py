@@ -22,6 +22,7 @@ from intersection_cosim.experiments.memory_guard import MemoryGuard
 from intersection_cosim.experiments.run_inputs import RunInputs, control_period_steps, vehicle_specs
 from intersection_cosim.network.crossings import movement_crossings
 from intersection_cosim.network.outline import junction_centre
+from intersection_cosim.results.overlaps import OverlapLog
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.v2x import Channel
 
@@ -38,6 +39,7 @@ class Records(NamedTuple):
     ended: list  # why the run ended early: at most one experiments.deadlock.Deadlock or
     #              experiments.memory_guard.MemoryLimit
     walker_rows: list[tuple]  # WALKER_COLUMNS, one per person near a crossing and control step
+    overlaps: OverlapLog  # our own body-overlap check, every control step
 
 
 class Simulated(NamedTuple):
@@ -49,6 +51,8 @@ class Simulated(NamedTuple):
     exit_lanes: dict  # vehicle id -> the exit lane it took
     v2x_counts: dict | None = None  # the V2X channel's message counts (None: perfect information)
     bodies: dict | None = None  # vehicle id -> (length, width) [m] of its SUMO vType (None: not read)
+    collision_log: tuple = ()  # sim.collisions.CollisionRecord, SUMO's collisions step by step
+    onboard_caps: int = 0  # [-] SUMO steps x vehicles in which the onboard guard lowered a command
 
 
 def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simulated:
@@ -106,7 +110,8 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
         if view is not None:
             view.close()
     return Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None,
-                      {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None)
+                     {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None,
+                     tuple(sim.collision_log), sim.guard.caps if sim.guard is not None else 0)
 
 
 def _route_error(scn: Scenario, exc: RouteRefusal) -> Exception:
@@ -134,7 +139,7 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
     With a ``channel`` (v2x.Channel) the vehicles send their states when it says so, the
     controller decides on the World the channel shows it, and its decisions reach SUMO when the
     channel delivers them (checked every step); the records keep SUMO's state."""
-    records = Records([], [], [], {}, [], [])
+    records = Records([], [], [], {}, [], [], OverlapLog())
     sim.advance()  # time 0: insert the vehicles that depart at once
     k = 0
     while sim.time < end_time - 1e-9 and (sim.remaining() > 0):
@@ -154,6 +159,7 @@ def _closed_loop(sim, scheduler, observers: list, period_steps: int, end_time: f
             for observe in observers:
                 observe(world, step.decisions)
             _record_step(records, world, step)
+            records.overlaps.check(world.time, *sim.junction_bodies())
             if (end := _early_end(guards, world.time, sim)) is not None:
                 log.warning("%s", end.message())
                 records.ended.append(end)

@@ -55,7 +55,7 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     tables = result_tables(scn, folder, inputs, simulated)
     diagnostics = inputs.controller.diagnostics()
     write_tables(folder, tables, simulated.records, diagnostics)
-    summary = run_summary(scn, simulated.infos, tables, diagnostics, gui)
+    summary = run_summary(scn, simulated.infos, tables, diagnostics, gui, simulated.onboard_caps)
     ended = simulated.records.ended
     summary["ended_early"] = ended[0]._asdict() if ended else None
     if simulated.v2x_counts is not None:

@@ -18,11 +18,13 @@ from intersection_cosim.experiments.run_inputs import RunInputs
 from intersection_cosim.network.cache import sumo_version
 from intersection_cosim.network.conflicts import movement_conflicts
 from intersection_cosim.network.paths import MovementPath
-from intersection_cosim.results.layout import (COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
+from intersection_cosim.results.collision_counts import collision_counts
+from intersection_cosim.results.layout import (COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE, SSM_FILE, STEP_COLUMNS, STEPS_FILE,
                                                TRAJECTORIES_FILE, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
-                                               WALKER_COLUMNS, WALKERS_FILE)
+                                               OVERLAPS_FILE, WALKER_COLUMNS, WALKERS_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
+from intersection_cosim.results.overlaps import OVERLAP_COLUMNS
 from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
@@ -37,6 +39,8 @@ class RunTables(NamedTuple):
     collisions: pd.DataFrame
     vehicles: pd.DataFrame
     pairs: pd.DataFrame
+    collision_log: pd.DataFrame  # COLLISION_LOG_COLUMNS: SUMO's records, with who was under a controller
+    overlaps: pd.DataFrame  # OVERLAP_COLUMNS: our own check's overlap events
 
 
 def result_tables(scn: Scenario, folder: Path, inputs: RunInputs, simulated: Simulated) -> RunTables:
@@ -52,7 +56,9 @@ def result_tables(scn: Scenario, folder: Path, inputs: RunInputs, simulated: Sim
     pairs = pair_table(traj, simulated.final_paths, inputs.paths, movement_conflicts(inputs.movements, touch),
                        scn.model, ssm, simulated.records.game_steps,
                        {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()}, simulated.bodies)
-    return RunTables(traj, steps, tripinfo, collisions, vehicles, pairs)
+    log = pd.DataFrame(list(simulated.collision_log), columns=COLLISION_LOG_COLUMNS)
+    overlaps = pd.DataFrame(simulated.records.overlaps.rows, columns=list(OVERLAP_COLUMNS))
+    return RunTables(traj, steps, tripinfo, collisions, vehicles, pairs, log, overlaps)
 
 
 def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str, MovementPath]) -> dict:
@@ -83,9 +89,12 @@ def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics:
                                                                          float_format="%.4f")
     tables.vehicles.to_csv(folder / VEHICLES_FILE, index=False, float_format="%.4f")
     tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
+    tables.collision_log.to_csv(folder / COLLISION_LOG_FILE, index=False, float_format="%.4f")
+    tables.overlaps.to_csv(folder / OVERLAPS_FILE, index=False, float_format="%.4f")
 
 
-def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None) -> dict:
+def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None,
+                onboard_caps: int | None = None) -> dict:
     """The run's summary.json: what ran, with which settings and versions, counts and metrics."""
     s = scn.scenario
     tripinfo, collisions, steps = tables.tripinfo, tables.collisions, tables.steps
@@ -104,7 +113,11 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
                    "safety_interventions": diagnostics.safety_interventions,
                    "box_rule_clearances": diagnostics.box_rule_clearances,
                    "pedestrian_collisions": int(collisions["type"].isin(PEDESTRIAN_COLLISIONS).sum()),
-                   "pedestrian_holds": diagnostics.pedestrian_holds},
+                   "pedestrian_holds": diagnostics.pedestrian_holds,
+                   "onboard_caps": onboard_caps},
+        # SUMO's records, distinct vehicles and pairs, split by whether a vehicle under a
+        # controller is involved, and our own overlap check beside them (results/collision_counts.py)
+        "collisions": collision_counts(tables.collision_log, tables.overlaps),
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,

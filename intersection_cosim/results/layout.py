@@ -37,6 +37,8 @@ WALKERS_FILE = "walkers.csv"
 TRIPINFO_FILE = "tripinfo.xml"
 SSM_FILE = "ssm.xml"
 COLLISIONS_FILE = "collisions.xml"
+COLLISION_LOG_FILE = "collisions.csv"  # SUMO's collisions as the loop saw them, with who was commanded
+OVERLAPS_FILE = "overlaps.csv"  # our own body-overlap check (results/overlaps.py)
 
 # time [s], vehicle, x, y [m], speed [m/s], accel [m/s^2], heading [rad], lane, role, path,
 # s [m] along the path, accel_cmd [m/s^2] (NaN: not commanded)
@@ -45,6 +47,8 @@ TRAJECTORY_COLUMNS = ["time", "vehicle", "x", "y", "speed", "accel", "heading", 
 # time [s], person, crossing (SUMO lane id), position [m] on the crossing's axis, direction (+1 / -1
 # along it), speed [m/s], x, y [m] (the net's frame)
 WALKER_COLUMNS = ["time", "person", "crossing", "position", "direction", "speed", "x", "y"]
+# time [s], collider, victim, SUMO's collision type, lane, whether a controller commanded each then
+COLLISION_LOG_COLUMNS = ["time", "collider", "victim", "type", "lane", "collider_commanded", "victim_commanded"]
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
 GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b", "junction", "solved"]  # time [s] of the step, the pair that
 # played, where, and whether its game was solved (False: it kept its last equilibrium, control/game/game_reuse.py)

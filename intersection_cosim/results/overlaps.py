@@ -63,6 +63,7 @@ def overlapping_pairs(x: np.ndarray, y: np.ndarray, heading: np.ndarray, length:
     return i[keep][order], j[keep][order]
 
 
+# time [s] an overlap began, the two vehicles (sorted), their lanes, whether a controller commanded each
 OVERLAP_COLUMNS = ("time", "vehicle_a", "vehicle_b", "lane_a", "lane_b", "a_commanded", "b_commanded")
 
 

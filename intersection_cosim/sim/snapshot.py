@@ -24,7 +24,7 @@ class Bodies(NamedTuple):
     length: np.ndarray  # [m]
     width: np.ndarray  # [m]
     lanes: list[str]
-    commanded: np.ndarray  # bool: a controller commands it
+    commanded: np.ndarray  # bool: under a controller (sim.sumo.SumoSimulation.controlled)
 
 
 def watched_lanes(api, movements: Movements) -> frozenset[str]:
@@ -41,13 +41,14 @@ def watched_lanes(api, movements: Movements) -> frozenset[str]:
 def junction_bodies(sim, watched: frozenset[str]) -> Bodies:
     """The bodies of every vehicle (whoever drives it) on a lane of ``watched``, as last read."""
     ids = [vid for vid, st in sim.states.items() if st[libsumo.VAR_LANE_ID] in watched]
+    controlled = sim.controlled()
     n = len(ids)
     pos = np.array([sim.states[vid][libsumo.VAR_POSITION] for vid in ids], float).reshape(n, 2)
     angle = np.array([sim.states[vid][libsumo.VAR_ANGLE] for vid in ids], float)  # [deg] navigational
     body = np.array([sim.bodies[vid][:2] for vid in ids], float).reshape(n, 2)
     return Bodies(ids, pos[:, 0], pos[:, 1], np.radians(90.0 - angle), body[:, 0], body[:, 1],
                   [sim.states[vid][libsumo.VAR_LANE_ID] for vid in ids],
-                  np.array([vid in sim.commands for vid in ids], bool))
+                  np.array([vid in controlled for vid in ids], bool))
 
 
 def world_snapshot(sim) -> World:

@@ -153,7 +153,7 @@ class SumoSimulation:
                 raise RouteRefusal(self.time + self.step_length, str(exc)) from None
             raise
         self.time = self.api.simulation.getTime()
-        self.collision_log += step_collisions(self.api, self.time, self.commands)
+        self.collision_log += step_collisions(self.api, self.time, self.controlled())
         if self.people_first and self._people is not None:
             self._people.people_first()
         for vid in self.api.simulation.getDepartedIDList():
@@ -337,6 +337,11 @@ class SumoSimulation:
     def world(self) -> World:
         """A snapshot of every vehicle on a managed path, in the paper's frame (sim/snapshot.py)."""
         return world_snapshot(self)
+
+    def controlled(self) -> set[str]:
+        """The vehicles under a controller now: commanded, or taken over on a managed approach and
+        waiting for their owner's first command."""
+        return set(self.commands) | self.taken
 
     def walkers(self) -> tuple[Walker, ...]:
         """The persons at the managed junctions' crossings (sim/people.py); () without crossings."""

@@ -19,7 +19,7 @@ sender's last accepted message, or its position or speed lies outside what the s
 reached from that message within ``max_accel``, ``max_decel`` and ``max_speed`` (plus a
 tolerance for noise, :func:`reckoning.tolerances`); ``max_decel`` is raised for a sender the
 controller itself told to brake harder (an emergency stop for a pedestrian,
-control/pedestrians.py): the infrastructure knows what it commanded, and rejecting that braking
+control/safety/pedestrians.py): the infrastructure knows what it commanded, and rejecting that braking
 would show the vehicle farther on and faster than it is to the one behind it. The sender is then predicted conservatively
 until a message is accepted again, from its last accepted state and the interval it can have
 reached since (:func:`reckoning.reach`), at the end of that interval that is worse for the

@@ -1,4 +1,4 @@
-"""control/exit_room.py: a READY vehicle is held at its stop line while its exit lane is full."""
+"""control/safety/exit_room.py: a READY vehicle is held at its stop line while its exit lane is full."""
 
 import dataclasses
 import os

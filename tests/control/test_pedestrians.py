@@ -1,4 +1,4 @@
-"""Yielding to pedestrians at crossings (control/pedestrians.py), on SUMO's Braunschweig junction
+"""Yielding to pedestrians at crossings (control/safety/pedestrians.py), on SUMO's Braunschweig junction
 38 (tools/game/fokr_bs_demo): a vehicle about to enter stays out of a crossing a person walks on."""
 
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""Closed loop with people on the crossings (control/pedestrians.py): SUMO's Braunschweig
+"""Closed loop with people on the crossings (control/safety/pedestrians.py): SUMO's Braunschweig
 junction 38 (tools/game/fokr_bs_demo), its lights off, four through flows and two streams of
 people walking round the junction over its zebra crossings. The game controller's vehicles yield
 to them; the same run with ``yield_to_pedestrians = false`` hits one (SUMO's collision check,
@@ -57,7 +57,7 @@ def test_the_game_controllers_vehicles_yield_to_people_on_the_crossings(tmp_path
 def test_people_are_not_hit_when_the_vehicles_states_come_over_a_noisy_link(tmp_path, seed):
     """0.2 m / 0.1 m/s of V2X noise read vehicles standing at a crossing's edge as inside it, and
     the rule let them drive on into the person (4 and 1 hit in these seeds); a vehicle at the
-    edge with a person in front now stops there (control/pedestrians.py, _edge_stop)."""
+    edge with a person in front now stops there (control/safety/pedestrians.py, _edge_stop)."""
     c = _run(tmp_path, "noisy", seed=seed, v2x={"position_noise": 0.2, "speed_noise": 0.1})["counts"]
     assert c["arrived"] == c["departed"] > 10
     assert c["pedestrian_collisions"] == 0 and c["collisions"] == 0 and c["pedestrian_holds"] > 50

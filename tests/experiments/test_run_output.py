@@ -73,7 +73,7 @@ def test_a_controller_that_drives_through_kept_lights_is_refused_in_one_line(tmp
 
 def test_pedestrians_in_the_route_file_are_refused_for_a_controller_that_does_not_see_them(tmp_path, capsys):
     """SUMO's Braunschweig junction with people walking over its crossings: fcfs's reservations
-    know no pedestrians; the game controllers yield to them (control/pedestrians.py) and SUMO's
+    know no pedestrians; the game controllers yield to them (control/safety/pedestrians.py) and SUMO's
     drivers do by themselves, so both run the file."""
     (tmp_path / "walk.rou.xml").write_text(
         '<routes><personFlow id="p" begin="0" end="20" period="4"><walk from="-1.23" to="5"/></personFlow></routes>')

@@ -1,5 +1,5 @@
 """Don't block the box across a corridor: a queue that spills back from a blocked exit road must
-not lock the junction upstream (control/exit_room.py), closed loop in SUMO."""
+not lock the junction upstream (control/safety/exit_room.py), closed loop in SUMO."""
 
 from pathlib import Path
 

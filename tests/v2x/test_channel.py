@@ -130,7 +130,7 @@ def test_plausibility_rejects_a_5_m_jump_and_accepts_a_physical_message(movement
 
 
 def test_a_braking_the_controller_commanded_is_plausible_beyond_max_decel(movements):
-    """An emergency stop at 7 m/s^2 (control/pedestrians.py) seen over a gap in the messages lies
+    """An emergency stop at 7 m/s^2 (control/safety/pedestrians.py) seen over a gap in the messages lies
     outside the 4.5 m/s^2 bound: it passes once the controller itself has sent that braking, and
     for that vehicle only."""
     ch = Channel(V2XSettings(), movements, PERIOD, seed=1)

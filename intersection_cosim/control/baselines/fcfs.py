@@ -39,7 +39,7 @@ same approach lane (a *following* pair) share a "stop-line point": from the fron
    ``comfort_accel`` to ``v_max``; a delayed one applies the constant acceleration of its slot
    (or brakes to stop before the line, ``stopping_acceleration``), clipped to
    ``[-max_brake, comfort_accel]``. Every command is capped by Krauss' safe speed
-   (``krauss_safe_speed``, control/safety.py) behind the vehicle's leader: the nearest vehicle
+   (``krauss_safe_speed``, control/safety/) behind the vehicle's leader: the nearest vehicle
    ahead on a shared stretch (same approach lane, or the same exit lane after a merge point).
 4. Vehicles that have left the conflict zone (role ``outside``) are released to SUMO.
 5. Don't block the box (``exit_room``, as the game controller): an approaching vehicle that is

@@ -25,7 +25,7 @@ class FcfsSettings:
     slot_step: float = 0.1  # [s] resolution of the arrival times tried
     max_delay: float = 120.0  # [s] latest arrival tried after the earliest one
     exit_room: bool = True  # [-] don't block the box: an uncommitted vehicle whose exit lane lacks
-    #                         room is held at its stop line without a reservation (control/exit_room.py)
+    #                         room is held at its stop line without a reservation (control/safety/exit_room.py)
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
     standing_speed: float = 1.0  # [m/s] a vehicle inside the junction slower than this claims exit room
 

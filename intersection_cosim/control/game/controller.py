@@ -108,7 +108,7 @@ class GameController:
     """The game-theoretic decision layer; ``equilibrium`` is ``"nash"`` or ``"stackelberg"``."""
 
     controls_vehicles = True
-    yields_to_pedestrians = True  # control/pedestrians.py
+    yields_to_pedestrians = True  # control/safety/pedestrians.py
 
     def __init__(self, equilibrium: str, settings: GameControllerSettings | None = None,
                  junction_type: str = "priority"):

@@ -5,8 +5,7 @@ as their v_max (control/game/relations.py, :func:`lane_speed_caps`), which J_e o
 (a plan starting faster may keep its speed). These caps make the limit hold, as SUMO's drivers
 keep it: a vehicle that would reach a lane with a lower limit too fast brakes from the last
 moment at which ``decel`` [m/s^2] still slows it to the limit at the lane's start, one control
-period ahead; on the lane it keeps to the limit. They go to the safety filter as holds, as the
-exit-room caps do (control/safety.py).
+period ahead; on the lane it keeps to the limit (the ``lane_speed_limit`` rule).
 """
 
 from __future__ import annotations
