@@ -35,3 +35,19 @@ def movements(net_file):
     from intersection_cosim.network.movements import paper_movements
 
     return paper_movements(net_file)
+
+
+DROP_RULE = "INTERSECTION_COSIM_TEST_DROP_RULE"  # a safety rule's name: run the tests without that rule
+
+
+@pytest.fixture(autouse=True)
+def _drop_rule(monkeypatch):
+    """With ``$INTERSECTION_COSIM_TEST_DROP_RULE`` set, every safety filter made in the test runs
+    without that rule (tests/control/safety/test_rules.py shows each rule's test then fails)."""
+    import os
+
+    name = os.environ.get(DROP_RULE)
+    if name:
+        from intersection_cosim.control.safety import rules
+
+        monkeypatch.setattr(rules, "RULES", tuple(r for r in rules.RULES if r.name != name))

@@ -31,6 +31,19 @@ class Walker(NamedTuple):
     y: float = math.nan  # [m]
 
 
+class Guest(NamedTuple):
+    """A vehicle on one managed junction's path that another managed junction must see too: one
+    coming through the first junction towards the second's stop line within its control range,
+    or one that has just left the first for the second (front on the link, rear maybe still in
+    the first's box). The other junction sees it as a guest: never its player, a vehicle whose
+    acceleration it may only cap (control/per_junction.py merges the caps into the owner's)."""
+
+    vehicle: str  # vehicle id (its own row is on its owner's path)
+    path: str  # the other junction's path the vehicle drives
+    offset: float  # [m] its arc length on ``path`` less its arc length on its own path
+    role: str  # "ready" (it comes towards the other junction) or "outside" (it has left it)
+
+
 @dataclass
 class World:
     """Snapshot of every vehicle in the network at ``time``; arrays are aligned with ``ids``."""
@@ -59,6 +72,8 @@ class World:
     decel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's braking (> 0); None: no own limit
     emergency_decel: np.ndarray | None = None  # [m/s^2] per vehicle, its vType's hardest braking (> 0); None: unknown
     walkers: tuple[Walker, ...] = ()  # pedestrians on or walking onto a managed junction's crossings
+    guests: tuple[Guest, ...] = ()  # vehicles other managed junctions must see too (the whole net's World)
+    guest: np.ndarray | None = None  # [-] bool per vehicle: a guest row of a junction's World (None: none)
 
     def subset(self, keep: list[int]) -> "World":
         """The World of the vehicles at indices ``keep`` (in that order): every per-vehicle array
@@ -83,6 +98,19 @@ class World:
     def is_human(self, k: int) -> bool:
         """Whether vehicle k is a human driver (observed and predicted, never commanded)."""
         return self.human is not None and bool(self.human[k])
+
+    def is_guest(self, k: int) -> bool:
+        """Whether row k is a guest (another junction commands it; this one may only cap it)."""
+        return self.guest is not None and bool(self.guest[k])
+
+    def observed(self) -> np.ndarray | None:
+        """(n,) bool: the vehicles this junction observes and never decides for (humans and
+        guests); None when there are none."""
+        if self.human is None and self.guest is None:
+            return None
+        n = len(self.ids)
+        return ((np.zeros(n, bool) if self.human is None else self.human)
+                | (np.zeros(n, bool) if self.guest is None else self.guest))
 
     def lengths(self, default: float) -> np.ndarray:
         """[m] (n,) every vehicle's length, ``default`` [m] where the World carries none."""
@@ -128,6 +156,7 @@ class Decisions:
     accel: dict[str, float] = field(default_factory=dict)  # [m/s^2] per controlled vehicle
     exit_lane: dict[str, str] = field(default_factory=dict)  # chosen exit lane per vehicle
     release: list[str] = field(default_factory=list)  # vehicles handed back to SUMO's driver model
+    caps: dict[str, float] = field(default_factory=dict)  # [m/s^2] upper bounds on guests' accelerations (World.guests)
     owner: dict[str, str] = field(default_factory=dict)  # per vehicle of ``accel`` and ``release``, the managed
     #   junction whose controller decided it (control/per_junction.py): the simulator adapter takes a
     #   command only while the vehicle is on that junction's paths (empty: the run's one junction)

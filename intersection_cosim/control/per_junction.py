@@ -17,13 +17,30 @@ from __future__ import annotations
 import dataclasses
 from typing import Callable
 
-from intersection_cosim.control.base import ControlContext, Controller, Decisions, Diagnostics, World
+import numpy as np
+
+from intersection_cosim.control.base import ControlContext, Controller, Decisions, Diagnostics, Guest, World
 from intersection_cosim.network.by_junction import junction_movements, path_junction
 
 
-def sub_world(world: World, keep: list[int]) -> World:
-    """The World of the vehicles at indices ``keep`` (in their order); ``world`` itself if all."""
-    return world if len(keep) == len(world) else world.subset(keep)
+def sub_world(world: World, keep: list[int], guests: list[tuple[int, Guest]] = ()) -> World:
+    """The World of the vehicles at indices ``keep`` (in their order) and, after them, the
+    ``guests`` (the index of each guest's own row, the Guest): a guest row is its vehicle on the
+    other junction's path, flagged ``World.guest``; ``world`` itself if all and no guest."""
+    if len(keep) == len(world) and not guests and not world.guests:
+        return world
+    part = world.subset([*keep, *(k for k, _ in guests)])
+    if not guests:
+        return dataclasses.replace(part, guests=())
+    n = len(keep)
+    path_ids, s, role = list(part.path_ids), part.s.copy(), list(part.role)
+    exits = dict(part.exit_choices)
+    for i, (_, g) in enumerate(guests, start=n):
+        path_ids[i], s[i], role[i] = g.path, s[i] + g.offset, g.role
+        exits[g.vehicle] = ()
+    flag = np.zeros(len(path_ids), bool)
+    flag[n:] = True
+    return dataclasses.replace(part, path_ids=path_ids, s=s, role=role, exit_choices=exits, guest=flag, guests=())
 
 
 def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> Decisions:
@@ -54,6 +71,10 @@ def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> De
         if d.note:
             notes.append(f"{j}: {d.note}")
     merged.release.sort()
+    for d in parts.values():  # a guest's caps bound its owner's decision
+        for vid, cap in d.caps.items():
+            if vid in merged.accel and cap < merged.accel[vid]:
+                merged.accel[vid] = cap
     merged.note = "; ".join(notes)
     return merged
 
@@ -102,7 +123,12 @@ class PerJunction:
         keep: dict[str, list[int]] = {j: [] for j in self.parts}
         for k, pid in enumerate(world.path_ids):
             keep[path_junction(self._movements, pid)].append(k)
-        return {j: sub_world(world, ks) for j, ks in keep.items()}
+        guests: dict[str, list[tuple[int, Guest]]] = {j: [] for j in self.parts}
+        index = {vid: k for k, vid in enumerate(world.ids)}
+        for g in world.guests:
+            if g.vehicle in index:
+                guests[path_junction(self._movements, g.path)].append((index[g.vehicle], g))
+        return {j: sub_world(world, ks, guests[j]) for j, ks in keep.items()}
 
     def decide(self, world: World, deadline: float) -> Decisions:
         worlds = self.split(world)

@@ -73,11 +73,12 @@ class ModelSettings:
     k_phi_lk: float = 0.5  # [1/rad^2] weight of the heading error in J_lk (Eq. 23)
     k_e: float = 0.04  # [s^2/m^2] weight of the speed error in J_e (Eq. 24)
     v_max: float = 10.0  # [m/s] maximum (desired) speed in J_e (Eq. 24)
-    # [-] plan within the net's lane speed limits (a turn's internal lanes are lower than v_max):
-    # a controlled vehicle's v_max is the lowest limit in force where it is (MovementPath.
-    # speed_limit_ahead, slowing at lane_speed_decel before the lane), as SUMO's drivers slow
-    # for a turn. Off: every vehicle plans up to v_max everywhere (the paper's model).
-    lane_speed_limits: bool = False
+    # [-] keep to the net's lane speed limits (a turn's internal lanes, a slow road): a controlled
+    # vehicle's v_max is the lowest limit in force where it is (MovementPath.speed_limit_ahead,
+    # slowing at lane_speed_decel before the lane), and the lane_speed_limit rule of the safety
+    # filter holds it, as SUMO's drivers keep them. Off: every vehicle plans up to v_max
+    # everywhere (the paper's model, which has no speed limits)
+    lane_speed_limits: bool = True
     lane_speed_decel: float = 2.0  # [m/s^2] ... the deceleration a limit ahead is planned with
     tcp_speed_floor: float = 0.1  # [m/s] speed floor in TCP = distance / speed (Eqs. 21-22)
     conflict_clearance: float = 4.5  # [m] past the conflict point by this, a vehicle has passed it

@@ -10,7 +10,8 @@ from typing import NamedTuple
 import libsumo
 import numpy as np
 
-from intersection_cosim.control.base import World
+from intersection_cosim.control.base import Guest, World
+from intersection_cosim.network.by_junction import path_junction
 from intersection_cosim.network.movements import OUTSIDE, READY, Movements
 
 
@@ -49,6 +50,34 @@ def junction_bodies(sim, watched: frozenset[str]) -> Bodies:
     return Bodies(ids, pos[:, 0], pos[:, 1], np.radians(90.0 - angle), body[:, 0], body[:, 1],
                   [sim.states[vid][libsumo.VAR_LANE_ID] for vid in ids],
                   np.array([vid in controlled for vid in ids], bool))
+
+
+def _offset(from_path, to_path, lane: str) -> float:
+    """[m] what to add to an arc length on ``from_path`` to get it on ``to_path``, over ``lane``,
+    a lane both run along."""
+    return to_path.lane_starts[to_path.lanes.index(lane)] - from_path.lane_starts[from_path.lanes.index(lane)]
+
+
+def guests_of(sim, vid: str, s: float) -> list[Guest]:
+    """The views other managed junctions have of vehicle ``vid`` at arc length ``s`` [m] of its
+    current path P: the next junction's path Q that starts on P's exit lane (a link between the two)
+    when the vehicle, not yet on that lane, is within the control range of Q's stop line; and the
+    previous junction's path, while the vehicle is on the link it came over from it."""
+    if len(sim.movements.junctions) < 2:
+        return []
+    paths, pid = sim.paths, sim.current_path[vid]
+    path, lane = paths[pid], sim.states[vid][libsumo.VAR_LANE_ID]
+    out = []
+    before = sim.previous_path.get(vid)
+    if before is not None and lane == paths[before].lanes[-1] and lane in path.lanes:
+        out.append(Guest(vid, before, _offset(path, paths[before], lane), OUTSIDE))
+    link = path.lanes[-1]
+    nxt = None if lane == link else sim.approach_path(link, vid)
+    if nxt is not None and path_junction(sim.movements, nxt) != path_junction(sim.movements, pid):
+        offset = _offset(path, paths[nxt], link)
+        if paths[nxt].s_stop - (s + offset) <= sim.control_range:
+            out.append(Guest(vid, nxt, offset, READY))
+    return out
 
 
 def world_snapshot(sim) -> World:
@@ -90,7 +119,9 @@ def world_snapshot(sim) -> World:
                  x=arr["x"], y=arr["y"], heading=arr["heading"], kappa=arr["kappa"], role=roles,
                  lanes=lanes, exit_choices=exit_choices, desired_speed=arr["desired"], human=human,
                  exit_free=_exit_free(sim, exit_choices, roles, ids), length=body[:, 0], width=body[:, 1],
-                 accel=body[:, 2], decel=body[:, 3], emergency_decel=body[:, 4], walkers=sim.walkers())
+                 accel=body[:, 2], decel=body[:, 3], emergency_decel=body[:, 4], walkers=sim.walkers(),
+                 guests=tuple(g for i, vid in enumerate(ids) for g in guests_of(sim, vid, float(s[i]))))
+
 
 def _exit_free(sim, exit_choices: dict[str, tuple[str, ...]], roles: list[str], ids: list[str]) -> dict:
     """Per exit lane (SUMO lane id) a READY vehicle may take: ([m] from the lane's start to the

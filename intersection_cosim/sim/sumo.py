@@ -65,6 +65,8 @@ class SumoSimulation:
     states: dict[str, dict] = field(default_factory=dict)
     current_path: dict[str, str] = field(default_factory=dict)
     left_paths: dict[str, str] = field(default_factory=dict)  # the last path of vehicles that left every path
+    previous_path: dict[str, str] = field(default_factory=dict)  # the path a vehicle drove before its current
+    #   one, when it came straight over that path's exit lane (a link between two managed junctions)
     exit_lane_taken: dict[str, str] = field(default_factory=dict)
     departed: dict[str, float] = field(default_factory=dict)
     arrived: dict[str, float] = field(default_factory=dict)
@@ -215,6 +217,9 @@ class SumoSimulation:
         if role == READY and info.intended_path is None:
             pid = self._approach_path(lane, info)
             if pid is not None and self._within_range(vid, lane, self.paths[pid]):
+                before = self.current_path.get(vid)
+                if before is not None and before != pid and lane == self.paths[before].lanes[-1]:
+                    self.previous_path[vid] = before  # it came over a link from another managed junction
                 self.current_path[vid] = pid
                 self._take_over(vid, info)
                 return
@@ -346,6 +351,11 @@ class SumoSimulation:
     def walkers(self) -> tuple[Walker, ...]:
         """The persons at the managed junctions' crossings (sim/people.py); () without crossings."""
         return self._people.walkers() if self._people is not None else ()
+
+    def approach_path(self, lane: str, vid: str) -> str | None:
+        """The managed path vehicle ``vid`` will take from approach lane ``lane`` (None: none)."""
+        info = self.vehicles.get(vid)
+        return None if info is None else self._approach_path(lane, info)
 
     def junction_bodies(self) -> Bodies:
         """The bodies of every vehicle in and around the managed junctions (sim/snapshot.py)."""

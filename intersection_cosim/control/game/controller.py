@@ -186,7 +186,8 @@ class GameController:
         self._decided_at, self._applied = world.time, dict(self.memory.plans)  # for the fallback
         self.memory.new_step()
         self._held_before, self._held = self._held, frozenset()
-        active = [k for k in range(len(world)) if world.role[k] != "outside" and not world.is_human(k)]
+        active = [k for k in range(len(world))
+                  if world.role[k] != "outside" and not world.is_human(k) and not world.is_guest(k)]
         decisions = Decisions(release=self._release(world, active))
         self.safety.record_entries(world)
         if not active:
@@ -315,6 +316,7 @@ class GameController:
             result = self.safety.apply(world, relations, self.memory.plans, self.memory.options, decisions.accel,
                                        games)
             decisions.accel.update(result.accel)
+            decisions.caps.update(result.guest_caps)
             self._held = self._held | result.held
             self._stall_held = result.stall_held
             if self.settings.policy.filter_event:
@@ -357,7 +359,7 @@ class GameController:
         active = set()
         for k in range(len(world)):
             vid = world.ids[k]
-            if world.role[k] == "outside" or world.is_human(k):
+            if world.role[k] == "outside" or world.is_human(k) or world.is_guest(k):
                 continue
             active.add(k)
             plan = self.memory.kept_plan(world, k, self.settings.game.comfort_brake)

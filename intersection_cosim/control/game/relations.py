@@ -233,7 +233,7 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     if hold is not None and hold.pairs:
         kept = _event_pairs(risk, k_of, world.ids, hold.pairs) & (np.abs(risk.tcp_i - risk.tcp_j) < hold.gap)
         forced = kept if forced is None else forced | kept
-    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.human, forced)
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.observed(), forced)
     return leaders, lateral
 
 

@@ -11,6 +11,7 @@ a leader is shortened by it, so the rules' invariants hold for the true position
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -67,6 +68,19 @@ class StepContext:
     def settings(self) -> SafetySettings:
         return self.junction.settings
 
+    def may_cap(self, vid: str) -> bool:
+        """Whether the filter may cap vehicle ``vid``: one it decided for, or a guest (its cap goes
+        to its owner)."""
+        return vid in self.accel or vid in self.guest_ids
+
+    @functools.cached_property
+    def guest_ids(self) -> frozenset[str]:
+        """The guests of this junction's World (World.guest)."""
+        world = self.world
+        if world.guest is None:
+            return frozenset()
+        return frozenset(vid for vid, g in zip(world.ids, world.guest) if g)
+
     # --- braking -----------------------------------------------------------------------------
     def brake(self, k: int) -> float:
         """[m/s^2] (< 0) the hardest braking counted on for vehicle k: the game's ``a_min``, or its
@@ -95,11 +109,13 @@ class StepContext:
     def plan_of(self, k: int, plans: Mapping[str, Plan], partner: int | None = None) -> Plan | None:
         """The plan checked for vehicle k: its plan in ``plans``, constant speed for one SUMO drives
         again (it has left the junction), a human's forecast (starting at once at ``a_max`` against
-        a ``partner`` that :meth:`may_release` says SUMO does not hold it for); None without one."""
+        a ``partner`` that :meth:`may_release` says SUMO does not hold it for), a guest's forecast
+        as a human's (another junction plans it; it is not known to brake); None without one."""
         world, p = self.world, self.junction.problem
-        if world.is_human(k):
-            a0 = p.a_max if partner is not None and self.may_release(k, partner) else None
-            return human_forecast(world, k, p.a_max, self.junction.model.v_max, p.steps, p.dt, a0)
+        if world.is_human(k) or world.is_guest(k):
+            release = world.is_human(k) and partner is not None and self.may_release(k, partner)
+            return human_forecast(world, k, p.a_max, self.junction.model.v_max, p.steps, p.dt,
+                                  p.a_max if release else None)
         plan = plans.get(world.ids[k])
         if plan is None and world.role[k] == "outside":
             return Plan.from_accelerations(float(world.s[k]), float(world.v[k]), np.zeros(p.steps), p.dt)

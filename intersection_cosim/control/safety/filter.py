@@ -29,7 +29,8 @@ from intersection_cosim.control.base import World
 from intersection_cosim.control.game.relations import Relations
 from intersection_cosim.control.safety.context import GuardedJunction, StepContext
 from intersection_cosim.control.safety.kinematics import braking_plan
-from intersection_cosim.control.safety.rules import RULES, Rule
+from intersection_cosim.control.safety import rules as rule_set
+from intersection_cosim.control.safety.rules import Rule
 from intersection_cosim.control.safety.rules.leader_gap import NAME as LEADER_GAP
 from intersection_cosim.control.safety.step import FilterStep, SafetyResult
 from intersection_cosim.games.problem import Plan
@@ -41,8 +42,9 @@ class SafetyFilter:
     """The rules of ``rules`` (default :data:`RULES`) on one junction, with its entry queue and the
     run's counters."""
 
-    def __init__(self, junction: GuardedJunction, rules: tuple[Rule, ...] = RULES):
-        self.junction, self.rules = junction, rules
+    def __init__(self, junction: GuardedJunction, rules: tuple[Rule, ...] | None = None):
+        self.junction = junction
+        self.rules = rule_set.RULES if rules is None else rules
         self.entered: dict[str, float] = {}  # [s] when each vehicle entered the junction (the queue)
         self.filtered = 0  # [-] accelerations the filter lowered
         self.cleared = 0  # [-] accelerations it raised to let a vehicle drive out of a crossing
@@ -75,7 +77,7 @@ class SafetyFilter:
                 if rule.each_look:
                     rule.run(ctx, step)
         self.pedestrian_holds += step.pedestrian_holds
-        return self._result(accel, step)
+        return self._result(ctx, step)
 
     def _context(self, world: World, relations: Relations, plans: Mapping[str, Plan], options: Mapping[str, str],
                  accel: Mapping[str, float], games: frozenset[tuple[str, str]]) -> StepContext:
@@ -110,10 +112,11 @@ class SafetyFilter:
             if vid in step.plans and limit < float(step.plans[vid].accelerations[0]):
                 step.plans[vid] = braking_plan(step.plans[vid], max(limit, step.brakes.get(vid, a_min)))
 
-    def _result(self, accel: Mapping[str, float], step: FilterStep) -> SafetyResult:
-        """The decided accelerations with the step's caps and drive-outs enforced."""
+    def _result(self, ctx: StepContext, step: FilterStep) -> SafetyResult:
+        """The decided accelerations with the step's caps and drive-outs enforced, and the caps on
+        the junction's guests (each no harder than the braking counted on for it)."""
         st, a_min = self.junction.settings, self.junction.problem.a_min
-        out, lowered, raised, held = dict(accel), {}, {}, set()
+        out, lowered, raised, held = dict(ctx.accel), {}, {}, set()
         for vid, rule in step.clear.items():
             if vid in out and out[vid] < st.clear_accel:
                 out[vid] = min(st.clear_accel, step.cap(vid))
@@ -127,5 +130,6 @@ class SafetyFilter:
                 self.filtered += 1
                 if limit < step.caps[vid].get(LEADER_GAP, math.inf):  # held by more than its leader
                     held.add(vid)
+        guests = {vid: max(step.cap(vid), step.brakes.get(vid, a_min)) for vid in ctx.guest_ids if vid in step.caps}
         return SafetyResult(out, lowered, raised, frozenset(held), frozenset(step.events),
-                            frozenset(step.stall_held), step.pedestrian_holds)
+                            frozenset(step.stall_held), step.pedestrian_holds, guests)

@@ -70,3 +70,4 @@ class SafetyResult:
     events: frozenset[tuple[str, str]]  # sorted pairs of AVs whose crossing a rule had to guard
     stall_held: frozenset[str]  # vehicles held at their stop lines for a stalled box
     pedestrian_holds: int  # [-] vehicles held back for a pedestrian
+    guest_caps: Mapping[str, float]  # [m/s^2] caps on guests (World.guest), for their owners to obey

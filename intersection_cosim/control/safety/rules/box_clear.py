@@ -12,7 +12,7 @@ the crossings sees it driving on.
 
 Setting: ``[controller.safety] clear_accel``, ``clear_speed``.
 
-Test: tests/control/safety/test_rules.py::test_box_clear
+Test: tests/control/test_safety_filter.py::test_the_entry_queue_and_the_box_rule
 """
 
 from __future__ import annotations

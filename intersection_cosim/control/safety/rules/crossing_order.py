@@ -16,13 +16,14 @@ can leave short of this one drives out of it and stands between the two. If it c
 the higher-ranked one does, if it can. Both committed: the lower-ranked one holds back as hard as
 it may, unless that would stop it in the crossing while the other is still coming, or in a human's
 way: then it drives out. A human is never made to yield (nothing commands it); it ranks ahead of
-every AV not yet in the junction, behind those inside. The pair becomes an event of the ETM for
+every AV not yet in the junction, behind those inside. A guest (a vehicle another managed
+junction commands, coming over a short link) ranks as an AV not yet in: its cap goes to its owner. The pair becomes an event of the ETM for
 the next step (``[controller.policy] filter_event``).
 
 Setting: ``[controller.safety] time_gap``, ``game_gap_share``, ``margin``, ``human_margin``,
 ``yield_order``, ``clear_speed``, ``clear_accel``.
 
-Test: tests/control/safety/test_rules.py::test_crossing_order
+Test: tests/control/test_safety_filter.py::test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it
 """
 
 from __future__ import annotations

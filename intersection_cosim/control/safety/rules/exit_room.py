@@ -12,7 +12,7 @@ there.
 
 Setting: ``[controller.safety] exit_room``, ``exit_min_gap``, ``margin``.
 
-Test: tests/control/safety/test_rules.py::test_exit_room
+Test: tests/control/safety/test_rules.py::test_no_entry_towards_a_full_exit_lane
 """
 
 from __future__ import annotations

@@ -13,7 +13,7 @@ nothing for an AV that can no longer stop there.
 
 Setting: ``[controller.safety] human_brake``, ``time_gap``, ``margin``.
 
-Test: tests/control/safety/test_rules.py::test_human_crossing
+Test: tests/control/test_humans.py::test_an_av_waits_at_its_stop_line_while_a_human_brakes_to_stop_in_its_crossing
 """
 
 from __future__ import annotations

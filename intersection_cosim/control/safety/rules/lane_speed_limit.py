@@ -10,7 +10,7 @@ limit at the lane's start, one control period ahead; on the lane it keeps to the
 
 Setting: ``[model] lane_speed_limits``, ``lane_speed_decel``.
 
-Test: tests/control/safety/test_rules.py::test_lane_speed_limit
+Test: tests/control/test_speed_limits.py::test_with_limits_on_a_right_turner_plans_for_its_limit_and_is_held_to_it
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ speed earns no credit and the follower stops until it is ahead.
 Setting: ``[controller.safety] margin``; the braking limits ``[controller.game] a_min`` and each
 vType's ``decel`` and ``emergencyDecel``.
 
-Test: tests/control/safety/test_rules.py::test_leader_gap
+Test: tests/control/test_safety_filter.py::test_a_follower_is_capped_at_krauss_safe_speed
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ def leader_caps(ctx: StepContext, brakes: dict[str, float]) -> tuple[dict[str, f
     for r, lead in ctx.relations.leaders.items():
         k = int(rows.vehicle[r])
         vid = world.ids[k]
-        if vid not in ctx.accel or not ctx.chosen[r]:
+        if not ctx.may_cap(vid) or not ctx.chosen[r]:
             continue
         length = world.length_of(lead.vehicle, j.model.vehicle_length)  # [m] the leader's body
         gap = lead.gap - length - ctx.settings.margin - j.gap_slack  # [m] bumper to bumper, less margin

@@ -13,7 +13,7 @@ Setting: ``[controller.safety] yield_to_pedestrians``, ``pedestrian_time_gap``,
 ``pedestrian_clearance``, ``pedestrian_margin``, ``pedestrian_speed_low``,
 ``pedestrian_speed_high``.
 
-Test: tests/control/safety/test_rules.py::test_pedestrians
+Test: tests/control/test_pedestrians.py::test_a_vehicle_too_close_to_stop_in_its_own_braking_makes_an_emergency_stop_for_a_person
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ Action: the blocker's entry time (the rank the crossing rules read) becomes the 
 
 Setting: ``[controller.safety] clear_speed``.
 
-Test: tests/control/safety/test_rules.py::test_priority_inheritance
+Test: tests/control/test_safety_filter.py::test_a_vehicle_standing_in_the_first_ones_crossing_goes_before_the_vehicles_it_ranks_behind
 """
 
 from __future__ import annotations

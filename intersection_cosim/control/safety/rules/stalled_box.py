@@ -13,7 +13,7 @@ for the entrant.
 
 Setting: ``[controller.safety] stalled_box_hold``, ``stalled_box_lookahead``, ``clear_speed``.
 
-Test: tests/control/safety/test_rules.py::test_stalled_box
+Test: tests/control/safety/test_rules.py::test_a_stalled_box_holds_an_entrant
 """
 
 from __future__ import annotations
