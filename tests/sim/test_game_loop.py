@@ -213,11 +213,12 @@ def test_slow_solver_gets_the_fallback_and_causes_no_collision(tmp_path, monkeyp
 
     def slow(self, world, deadline):
         if 1.0 <= world.time < 2.0:  # one simulated second of overruns
-            time.sleep(0.03)
+            time.sleep(0.15)
         return decide(self, world, deadline)
 
     monkeypatch.setattr(GameController, "decide", slow)
-    run = _run(tmp_path, "case1_A", "nash", budget_ms=20.0)
+    # a budget that an ordinary step meets even on a loaded machine; the sleep overruns it
+    run = _run(tmp_path, "case1_A", "nash", budget_ms=100.0)
     steps = pd.read_csv(run / "steps.csv")
     slow_steps = steps[(steps["time"] >= 1.0) & (steps["time"] < 2.0)]
     assert slow_steps["deadline_missed"].all() and slow_steps["fallback"].all()
