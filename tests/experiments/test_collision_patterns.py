@@ -1,0 +1,264 @@
+"""Closed loop per collision pattern of the game controller on small nets built here.
+
+Two junctions A and B on a one-way road W -> A -> B -> E, each crossed by a one-way street
+(netconvert from plain XML); the demand is a route file of hand-timed vehicles (AVs of the
+user's own routes, adopted by the controller). Each test drives the pattern with ``nash`` and
+checks SUMO's collision records, the bumper-to-bumper gaps and speeds of the vehicles involved,
+and who commanded them.
+"""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+from types import SimpleNamespace
+
+import libsumo
+import pandas as pd
+import pytest
+import sumolib
+
+from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.network.by_junction import path_junction
+from intersection_cosim.results.sumo_outputs import read_collisions
+from intersection_cosim.scenario import scenario_from_dict
+from intersection_cosim.sim.sumo import SumoSimulation
+from intersection_cosim.v2x.channel import Channel
+
+pytestmark = pytest.mark.slow
+
+LENGTH = 4.5  # [m] every vehicle's body (the route files' vType)
+SPEED_MODE_SUMO = 31  # SUMO's default speed mode: every check of its own driver model on
+VTYPE = '<vType id="car" length="4.5" width="1.8" minGap="2.5"/>'
+
+
+def _corridor(folder: Path, spacing: float) -> Path:
+    """The net: A at x = 0 and B at x = ``spacing`` [m] on the eastbound road WA -> AB -> BE, a
+    southbound street through each (NAA -> ASA, NBB -> BSB); one lane each, priority junctions."""
+    nodes = (f'<nodes><node id="A" x="0" y="0" type="priority"/><node id="B" x="{spacing}" y="0" type="priority"/>'
+             f'<node id="W" x="-200" y="0"/><node id="E" x="{spacing + 150}" y="0"/>'
+             f'<node id="NA" x="0" y="150"/><node id="SA" x="0" y="-150"/>'
+             f'<node id="NB" x="{spacing}" y="150"/><node id="SB" x="{spacing}" y="-150"/></nodes>')
+    edges = "<edges>" + "".join(f'<edge id="{e}" from="{a}" to="{b}" numLanes="1" speed="13.89"/>' for e, a, b in (
+        ("WA", "W", "A"), ("AB", "A", "B"), ("BE", "B", "E"), ("NAA", "NA", "A"), ("ASA", "A", "SA"),
+        ("NBB", "NB", "B"), ("BSB", "B", "SB"))) + "</edges>"
+    (folder / "c.nod.xml").write_text(nodes)
+    (folder / "c.edg.xml").write_text(edges)
+    net = folder / "corridor.net.xml"
+    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "c.nod.xml", "-e", "c.edg.xml", "--no-turnarounds",
+                    "-o", net.name], cwd=folder, check=True, capture_output=True)
+    return net
+
+
+def _edge_length(net: Path, edge: str) -> float:
+    return sumolib.net.readNet(str(net)).getEdge(edge).getLength()  # [m]
+
+
+def _routes(folder: Path, vehicles: list[tuple[float, str]]) -> Path:
+    """A route file of ``vehicles`` ((depart [s], <vehicle> element)), sorted by departure."""
+    path = folder / "demand.rou.xml"
+    body = "\n".join(v for _, v in sorted(vehicles, key=lambda v: v[0]))
+    path.write_text(f"<routes>\n{VTYPE}\n{body}\n</routes>\n")
+    return path
+
+
+def _run(folder: Path, net: Path, routes: Path, control_range: float, v2x: dict | None = None):
+    """Run ``nash`` on A and B: (summary, trajectories, SUMO's collision records)."""
+    data = {"scenario": {"name": "pattern", "duration": 30.0, "drain": 60.0, "seed": 1},
+            "controller": {"kind": "nash", "budget_ms": 2000.0},
+            "network": {"file": str(net), "junctions": ["A", "B"], "control_range": control_range,
+                        "routes": str(routes)}}
+    if v2x is not None:
+        data["v2x"] = v2x
+    out = folder / "run"
+    summary = run_scenario(scenario_from_dict(data, "<pattern>"), out)
+    return summary, pd.read_csv(out / "trajectories.csv"), read_collisions(out / "collisions.xml")
+
+
+def _records(collisions: pd.DataFrame) -> list[tuple]:
+    return [tuple(r) for r in collisions[["time", "collider", "victim", "lane"]].itertuples(index=False)]
+
+
+def _eastbound_gaps(traj: pd.DataFrame, ids: set[str]) -> pd.DataFrame:
+    """Per control step and pair of consecutive vehicles of ``ids`` on the eastbound road (a
+    straight line: x orders them): the follower's bumper-to-bumper gap [m] and both speeds."""
+    rows = []
+    east = traj[traj["vehicle"].isin(ids)].sort_values(["time", "x"])
+    for time, g in east.groupby("time", sort=True):
+        x, v, vid = g["x"].to_numpy(), g["speed"].to_numpy(), g["vehicle"].to_numpy()
+        rows += [(time, vid[k], vid[k + 1], x[k + 1] - LENGTH - x[k], v[k], v[k + 1]) for k in range(len(x) - 1)]
+    return pd.DataFrame(rows, columns=["time", "follower", "leader", "gap", "v_follower", "v_leader"])
+
+
+class OwnerLog:
+    """Who commands each vehicle, SUMO step by SUMO step, read from the simulator adapter.
+
+    A command's junction is the managed junction whose controller decided it: the one whose path
+    the vehicle was on in the World it was decided on (without a V2X link the simulator's World
+    of that very step; over V2X the World the link showed, each command arriving one latency
+    later). After every SUMO step a vehicle that holds a command may hold only that of the
+    junction whose path it is on short of the path's exit lane; a vehicle once commanded and
+    holding none now is driven by SUMO with SUMO's own checks (its default speed mode)."""
+
+    def __init__(self):
+        self.sender: dict[str, str] = {}  # vehicle -> junction of the command it holds
+        self.owners: dict[str, list[str]] = {}  # vehicle -> junctions whose commands it took, in order
+        self.stale: list[tuple] = []  # (time [s], vehicle, command's junction, junction now (None: none), lane)
+        self.unchecked: list[tuple] = []  # (time [s], vehicle, speed mode): SUMO drives it, its checks off
+        self.commanded_steps = 0  # [-] SUMO steps x vehicles holding a command
+        self._sent: dict[tuple[str, float], str] = {}  # (vehicle, arrival [s]) -> junction, over V2X
+
+    def install(self, mp: pytest.MonkeyPatch) -> None:
+        command, advance, send = SumoSimulation.command, SumoSimulation.advance, Channel.send
+
+        def logged_send(channel, decisions, time):
+            for vid in decisions.accel:
+                if vid in channel.tracks:
+                    junction = path_junction(channel.movements, channel.tracks[vid].accepted.path_id)
+                    self._sent[(vid, round(time + channel.settings.latency, 3))] = junction
+            send(channel, decisions, time)
+
+        def logged_command(sim, decisions):
+            held = dict(sim.commands)
+            command(sim, decisions)
+            for vid, accel in decisions.accel.items():
+                if sim.commands.get(vid) != float(accel):
+                    continue  # not taken
+                if self._sent:
+                    junction = self._sent.pop((vid, round(sim.time, 3)), None)
+                    if junction is None or held.get(vid) == float(accel):
+                        continue  # not told apart from the command it held
+                else:
+                    junction = path_junction(sim.movements, sim.current_path[vid])
+                self.sender[vid] = junction
+                seen = self.owners.setdefault(vid, [])
+                if not seen or seen[-1] != junction:
+                    seen.append(junction)
+
+        def logged_advance(sim):
+            advance(sim)
+            self.check(sim)
+
+        mp.setattr(Channel, "send", logged_send)
+        mp.setattr(SumoSimulation, "command", logged_command)
+        mp.setattr(SumoSimulation, "advance", logged_advance)
+
+    def check(self, sim) -> None:
+        for vid, state in sim.states.items():
+            lane = state[libsumo.VAR_LANE_ID]
+            if vid not in sim.commands:
+                mode = sim.api.vehicle.getSpeedMode(vid)
+                if vid in self.owners and mode != SPEED_MODE_SUMO:
+                    self.unchecked.append((round(sim.time, 2), vid, mode))
+                continue
+            self.commanded_steps += 1
+            pid = sim.current_path.get(vid)
+            now = None
+            if pid is not None and lane != sim.paths[pid].lanes[-1]:
+                now = path_junction(sim.movements, pid)
+            if now != self.sender.get(vid):
+                self.stale.append((round(sim.time, 2), vid, self.sender.get(vid), now, lane))
+
+
+def _short_link(folder: Path, v2x: dict | None = None) -> SimpleNamespace:
+    """An 8.8 m link from A to B: ten AVs eastbound 1.2 s apart at 10 m/s through A and B, and
+    ten AVs southbound through B 1.5 s apart from 5 s (kappa 0.9): B stops the eastbound ones
+    on the link while those behind them are still in A's box."""
+    net = _corridor(folder, 20.0)
+    east = [(i * 1.2, f'<vehicle id="e{i}" type="car" depart="{i * 1.2:.2f}" departSpeed="10">'
+                      '<route edges="WA AB BE"/></vehicle>') for i in range(10)]
+    south = [(5.0 + j * 1.5, f'<vehicle id="s{j}" type="car" depart="{5.0 + j * 1.5:.2f}" departSpeed="10">'
+                             '<param key="kappa" value="0.9"/><route edges="NBB BSB"/></vehicle>') for j in range(10)]
+    log = OwnerLog()
+    with pytest.MonkeyPatch.context() as mp:
+        log.install(mp)
+        summary, traj, collisions = _run(folder, net, _routes(folder, east + south), 100.0, v2x)
+    return SimpleNamespace(net=net, summary=summary, traj=traj, collisions=collisions, log=log,
+                           east={f"e{i}" for i in range(10)})
+
+
+@pytest.fixture(scope="module")
+def short_link(tmp_path_factory):
+    return _short_link(tmp_path_factory.mktemp("short_link"))
+
+
+def _assert_one_owner(run: SimpleNamespace) -> None:
+    log = run.log
+    handed = [vid for vid in run.east if log.owners.get(vid, [])[:2] == ["A", "B"]]
+    assert len(handed) >= 8  # commanded by A, then by B
+    assert log.commanded_steps > 1000
+    assert (len(log.stale), len(log.unchecked)) == (0, 0), (
+        f"SUMO steps x vehicles holding a command of a junction they were not on: {len(log.stale)}, "
+        f"first {log.stale[:3]}; driven by SUMO with its checks off: {len(log.unchecked)}, first {log.unchecked[:3]}")
+
+
+def test_the_short_link_is_as_short_as_asked(short_link):
+    assert 8.0 < _edge_length(short_link.net, "AB") < 10.0  # [m]
+
+
+def test_vehicles_leaving_a_junction_stop_behind_the_queue_of_the_next_one(short_link):
+    """Who leaves A at speed into the queue B holds on the 8.8 m link stops behind it."""
+    counts, traj = short_link.summary["counts"], short_link.traj
+    assert counts["departed"] == counts["arrived"] == 20
+    on_link = traj[traj["vehicle"].isin(short_link.east) & (traj["lane"] == "AB_0")]
+    assert on_link["speed"].min() < 1.0  # [m/s] the pattern happened: B stopped an eastbound AV on the link
+    assert _records(short_link.collisions) == [], f"SUMO's collisions {_records(short_link.collisions)}"
+    gaps = _eastbound_gaps(traj, short_link.east)
+    worst = gaps.loc[gaps["gap"].idxmin()]
+    assert worst["gap"] >= 0.0, f"min bumper-to-bumper gap {worst.to_dict()}"
+    collisions = short_link.summary["collisions"]
+    assert collisions["sumo_records_commanded"] == 0 and collisions["overlap_pairs_commanded"] == 0
+
+
+def test_a_vehicle_leaving_a_junction_holds_no_command_of_the_junction_it_left(short_link):
+    """Handover on the 8.8 m link: every SUMO step a vehicle is commanded by the junction whose
+    path it is on or driven by SUMO with SUMO's own checks, never by a junction it has left."""
+    _assert_one_owner(short_link)
+
+
+def test_an_av_stops_behind_a_vehicle_whose_trip_ends_on_its_approach(tmp_path):
+    """A vehicle whose trip starts and ends on A's approach WA stands there 12 s (a stop): it is
+    on no path of A, so A's controller does not track it. The two AVs coming up behind it at
+    10 m/s stop short of it."""
+    net = _corridor(tmp_path, 20.0)
+    parked = (0.0, '<vehicle id="parked" type="car" depart="0" departPos="150" arrivalPos="170">'
+                   '<route edges="WA"/><stop lane="WA_0" endPos="152" duration="12"/></vehicle>')
+    avs = [(2.0 * i, f'<vehicle id="e{i}" type="car" depart="{2.0 * i:.1f}" departPos="60" departSpeed="10">'
+                     '<route edges="WA AB BE"/></vehicle>') for i in range(2)]
+    summary, traj, collisions = _run(tmp_path, net, _routes(tmp_path, [parked, *avs]), 100.0)
+    assert "parked" not in set(traj["vehicle"])  # never on a managed path
+    assert summary["counts"]["departed"] == summary["counts"]["arrived"] == 3
+    assert _records(collisions) == [], f"SUMO's collisions {_records(collisions)}"
+    e0 = traj[(traj["vehicle"] == "e0") & (traj["time"] <= 12.0)]  # the parked vehicle stands at least that long
+    assert (e0["lane"] == "WA_0").all()
+    gap = (152.0 - LENGTH) - e0["s"]  # [m] to the parked vehicle's rear (WA_0 is the path's first lane)
+    assert gap.min() >= 0.0, f"e0's min gap to the parked vehicle {gap.min():.2f} m"
+    assert e0.loc[gap.idxmin(), "speed"] < 0.5  # [m/s] it stands behind it
+    assert summary["collisions"]["sumo_records_commanded"] == 0
+
+
+def test_an_av_released_after_a_junction_stops_behind_the_queue_of_the_next(tmp_path):
+    """A 119 m link, 25 m control range, 0.1 s V2X latency: four AVs stand in B's range (B holds
+    them: a vehicle stands on B's exit for 20 s), the last one's rear beyond the range. AV ``x``
+    leaves A at 10 m/s and drives along the link on A's exit lane, past A and short of B's range,
+    up to the back of that queue. It stops behind it."""
+    net = _corridor(tmp_path, 130.0)
+    link = _edge_length(net, "AB")
+    vehicles = [(0.0, '<vehicle id="parked" type="car" depart="0" departPos="0" arrivalPos="40"><route edges="BE"/>'
+                      '<stop lane="BE_0" endPos="6" duration="20"/></vehicle>'),
+                (0.0, '<vehicle id="x" type="car" depart="0" departPos="100" departSpeed="10">'
+                      '<route edges="WA AB BE"/></vehicle>')]
+    vehicles += [(0.0, f'<vehicle id="q{k}" type="car" depart="0" departPos="{link - 0.5 - 7.5 * k:.2f}" '
+                       'departSpeed="0"><route edges="AB BE"/></vehicle>') for k in range(4)]
+    summary, traj, collisions = _run(tmp_path, net, _routes(tmp_path, vehicles), 25.0, v2x={"latency": 0.1})
+    assert summary["counts"]["departed"] == summary["counts"]["arrived"] == 6
+    x = traj[traj["vehicle"] == "x"]
+    assert (x["role"] == "outside").sum() > 50  # on A's exit lane, let go by A, for more than 5 s
+    assert _records(collisions) == [], f"SUMO's collisions {_records(collisions)}"
+    gaps = _eastbound_gaps(traj, {"x", "q3"})
+    behind = gaps[(gaps["follower"] == "x") & (gaps["leader"] == "q3")]
+    held = behind[behind["time"] < 20.0]  # while the parked vehicle holds the queue
+    worst = held.loc[held["gap"].idxmin()]
+    assert worst["gap"] >= 0.0, f"x behind q3: {worst.to_dict()}"
+    assert held["v_leader"].max() < 0.5 and held["v_follower"].min() < 0.1  # [m/s] x stood behind the standing q3
+    assert summary["collisions"]["sumo_records_commanded"] == 0
