@@ -50,6 +50,25 @@ def _corridor(folder: Path, spacing: float) -> Path:
     return net
 
 
+def _fork(folder: Path) -> Path:
+    """A single junction A: WA (two lanes) from the west, lane 0 only straight on to AE, lane 1
+    only left into AN; SA from the south to both."""
+    (folder / "f.nod.xml").write_text('<nodes><node id="A" x="0" y="0" type="priority"/><node id="W" x="-200" y="0"/>'
+                                      '<node id="E" x="150" y="0"/><node id="N" x="0" y="150"/>'
+                                      '<node id="S" x="0" y="-150"/></nodes>')
+    (folder / "f.edg.xml").write_text("<edges>" + "".join(
+        f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="13.89"/>'
+        for e, a, b, n in (("WA", "W", "A", 2), ("AE", "A", "E", 1), ("AN", "A", "N", 1), ("SA", "S", "A", 1)))
+        + "</edges>")
+    (folder / "f.con.xml").write_text("<connections>" + "".join(
+        f'<connection from="{a}" to="{b}" fromLane="{k}" toLane="0"/>'
+        for a, b, k in (("WA", "AE", 0), ("WA", "AN", 1), ("SA", "AE", 0), ("SA", "AN", 0))) + "</connections>")
+    net = folder / "fork.net.xml"
+    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "f.nod.xml", "-e", "f.edg.xml", "-x", "f.con.xml",
+                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
+    return net
+
+
 def _edge_length(net: Path, edge: str) -> float:
     return sumolib.net.readNet(str(net)).getEdge(edge).getLength()  # [m]
 
@@ -62,11 +81,12 @@ def _routes(folder: Path, vehicles: list[tuple[float, str]]) -> Path:
     return path
 
 
-def _run(folder: Path, net: Path, routes: Path, control_range: float, v2x: dict | None = None):
-    """Run ``nash`` on A and B: (summary, trajectories, SUMO's collision records)."""
+def _run(folder: Path, net: Path, routes: Path, control_range: float, v2x: dict | None = None,
+         junctions: tuple[str, ...] = ("A", "B")):
+    """Run ``nash`` on ``junctions``: (summary, trajectories, SUMO's collision records)."""
     data = {"scenario": {"name": "pattern", "duration": 30.0, "drain": 60.0, "seed": 1},
             "controller": {"kind": "nash", "budget_ms": 2000.0},
-            "network": {"file": str(net), "junctions": ["A", "B"], "control_range": control_range,
+            "network": {"file": str(net), "junctions": list(junctions), "control_range": control_range,
                         "routes": str(routes)}}
     if v2x is not None:
         data["v2x"] = v2x
@@ -261,6 +281,30 @@ def test_an_av_released_after_a_junction_stops_behind_the_queue_of_the_next(tmp_
     worst = held.loc[held["gap"].idxmin()]
     assert worst["gap"] >= 0.0, f"x behind q3: {worst.to_dict()}"
     assert held["v_leader"].max() < 0.5 and held["v_follower"].min() < 0.1  # [m/s] x stood behind the standing q3
+    assert summary["collisions"]["sumo_records_commanded"] == 0
+
+
+def test_an_av_stops_behind_a_vehicle_waiting_to_change_into_its_turning_lane(tmp_path):
+    """A vehicle turning left from WA stands at the end of lane 0 (straight only) for 20 s,
+    three vehicles standing on lane 1 (left only) beside it: its route leaves by no path of
+    lane 0, so the controller does not track it there. The AV coming up behind it on lane 0 at
+    10 m/s stops short of it."""
+    net = _fork(tmp_path)
+    end = _edge_length(net, "WA")  # [m]
+    vehicles = [(0.0, f'<vehicle id="b{k}" type="car" depart="0" departLane="1" departPos="{end - 30 - 10 * k:.1f}" '
+                      f'arrivalPos="{end - 1:.1f}"><route edges="WA"/>'
+                      f'<stop lane="WA_1" endPos="{end - 6 - 7 * k:.1f}" duration="20"/></vehicle>') for k in range(3)]
+    vehicles += [(0.0, f'<vehicle id="v" type="car" depart="0" departLane="0" departPos="{end - 10:.1f}" departSpeed="0">'
+                       '<route edges="WA AN"/></vehicle>'),
+                 (0.0, '<vehicle id="x" type="car" depart="0" departLane="0" departPos="60" departSpeed="10">'
+                       '<route edges="WA AE"/></vehicle>')]
+    summary, traj, collisions = _run(tmp_path, net, _routes(tmp_path, vehicles), 100.0, junctions=("A",))
+    assert summary["counts"]["departed"] == summary["counts"]["arrived"] == 5
+    v = traj[traj["vehicle"] == "v"]
+    assert "WA_0" not in set(v["lane"]) and v["time"].min() > 20.0  # untracked while it waits on lane 0
+    assert _records(collisions) == [], f"SUMO's collisions {_records(collisions)}"
+    x = traj[(traj["vehicle"] == "x") & (traj["time"] < 20.0)]
+    assert (x["lane"] == "WA_0").all() and x["speed"].min() < 0.1  # [m/s] x stood behind v on lane 0
     assert summary["collisions"]["sumo_records_commanded"] == 0
 
 
