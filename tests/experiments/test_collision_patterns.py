@@ -1,10 +1,10 @@
 """Closed loop per collision pattern of the game controller on small nets built here.
 
-Two junctions A and B on a one-way road W -> A -> B -> E, each crossed by a one-way street
-(netconvert from plain XML); the demand is a route file of hand-timed vehicles (AVs of the
-user's own routes, adopted by the controller). Each test drives the pattern with ``nash`` and
-checks SUMO's collision records, the bumper-to-bumper gaps and speeds of the vehicles involved,
-and who commanded them.
+Two junctions A and B on a one-way road W -> A -> B -> E, each crossed by a one-way street, or
+one junction whose two-lane approach has a lane per movement (netconvert from plain XML); the
+demand is a route file of hand-timed vehicles (AVs of the user's own routes, adopted by the
+controller). Each test drives the pattern with ``nash`` and checks SUMO's collision records,
+the bumper-to-bumper gaps and speeds of the vehicles involved, and who commanded them.
 """
 
 from __future__ import annotations
