@@ -242,7 +242,7 @@ class Channel:
             self._unreleased.discard(vid)
             accel = decisions.accel.get(vid)
             self._down.append(Command(vid, time + self.settings.latency, accel,
-                                      decisions.exit_lane.get(vid), vid in release))
+                                      decisions.exit_lane.get(vid), vid in release, decisions.owner.get(vid)))
             if accel is not None and -accel > self.settings.max_decel:
                 kept = [h for h in self._hard.get(vid, ()) if h[0] >= time - 2 * HARD_HOLD - self.settings.resync]
                 self._hard[vid] = kept + [(time, -accel)]
@@ -261,5 +261,7 @@ class Channel:
                 out.exit_lane[c.vehicle] = c.exit_lane
             if c.release:
                 out.release.append(c.vehicle)
+            if c.owner is not None:  # the adapter takes it only while its junction owns the vehicle
+                out.owner[c.vehicle] = c.owner
         return out
 

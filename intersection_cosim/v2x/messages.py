@@ -29,3 +29,4 @@ class Command:
     accel: float | None  # [m/s^2] None: no acceleration in this decision
     exit_lane: str | None
     release: bool  # hand the vehicle back to SUMO's driver model
+    owner: str | None = None  # the managed junction whose controller decided it (Decisions.owner)

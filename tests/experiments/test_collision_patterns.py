@@ -308,8 +308,6 @@ def test_an_av_stops_behind_a_vehicle_waiting_to_change_into_its_turning_lane(tm
     assert summary["collisions"]["sumo_records_commanded"] == 0
 
 
-@pytest.mark.xfail(strict=True, reason="commands delivered over V2X carry no owner (v2x/channel.py Command), so "
-                                       "the adapter takes a junction's late command after the handover")
 def test_over_v2x_a_vehicle_leaving_a_junction_holds_no_command_of_the_junction_it_left(tmp_path):
     """The 8.8 m link with 0.2 s V2X latency: a command decided before the handover arrives
     after it; the vehicle does not take it, and nobody collides."""
