@@ -1,8 +1,6 @@
 """Our own collision check: which vehicle bodies overlap, independent of SUMO's collision output.
 
-Each body is the rectangle ``length`` x ``width`` [m] behind the front-bumper position along the
-heading (SUMO's position is the front bumper's middle). Two rectangles overlap unless one of their
-edge normals separates them (separating axis theorem). Pairs whose bounding circles do not meet
+Bodies and their overlap test are models/bodies.py's. Pairs whose bounding circles do not meet
 are dropped first (sorted by x, so the check stays near linear in the number of vehicles).
 """
 
@@ -12,17 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
-def body_corners(x: np.ndarray, y: np.ndarray, heading: np.ndarray, length: np.ndarray,
-                 width: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(n, 4, 2) [m] the corners of each body, (n, 2) its driving direction, (n, 2) its left
-    normal; ``heading`` [rad] counter-clockwise from east, ``length`` and ``width`` [m]."""
-    d = np.stack([np.cos(heading), np.sin(heading)], axis=1)
-    nrm = np.stack([-d[:, 1], d[:, 0]], axis=1)
-    front = np.stack([x, y], axis=1)
-    rear = front - np.asarray(length, float)[:, None] * d
-    half = (np.asarray(width, float)[:, None] / 2.0) * nrm
-    return np.stack([front + half, front - half, rear - half, rear + half], axis=1), d, nrm
+from intersection_cosim.models.bodies import bodies_overlap, body_corners
 
 
 def _near_pairs(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -53,12 +41,7 @@ def overlapping_pairs(x: np.ndarray, y: np.ndarray, heading: np.ndarray, length:
     corners, d, nrm = body_corners(x, y, heading, length, width)
     centre = corners.mean(axis=1)
     i, j = _near_pairs(centre[:, 0], centre[:, 1], 0.5 * np.hypot(length, width))
-    separated = np.zeros(len(i), dtype=bool)
-    for axes in (d[i], nrm[i], d[j], nrm[j]):  # (m, 2) candidate separating axes
-        pi = np.einsum("mkc,mc->mk", corners[i], axes)
-        pj = np.einsum("mkc,mc->mk", corners[j], axes)
-        separated |= (pi.max(1) < pj.min(1)) | (pj.max(1) < pi.min(1))
-    keep = ~separated
+    keep = bodies_overlap((corners[i], d[i], nrm[i]), (corners[j], d[j], nrm[j]))
     order = np.lexsort((j[keep], i[keep]))
     return i[keep][order], j[keep][order]
 

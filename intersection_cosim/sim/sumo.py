@@ -30,6 +30,7 @@ from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Moveme
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.sim.backend import LIBSUMO, SumoBackend, sumo_version, traci_backend
 from intersection_cosim.sim.collisions import CollisionRecord, step_collisions
+from intersection_cosim.sim.exit_lanes import arrive_switched, switch_exit_lane
 from intersection_cosim.sim.onboard import OnboardGuard
 from intersection_cosim.sim.people import CrossingPeople
 from intersection_cosim.sim.snapshot import Bodies, junction_bodies, watched_lanes, world_snapshot
@@ -175,7 +176,7 @@ class SumoSimulation:
             if info.start_s is not None:
                 lane, pos = self.lane_position(self.paths[info.intended_path], info.start_s)
                 self.api.vehicle.moveTo(vid, lane, pos)
-                self.switched.add(vid)  # moveTo resets its arrival position (see _arrive_switched)
+                self.switched.add(vid)  # moveTo resets its arrival position (see sim/exit_lanes.py)
         for vid in self.api.simulation.getArrivedIDList():
             self.arrived[vid] = self.time
             self.states.pop(vid, None)
@@ -185,12 +186,12 @@ class SumoSimulation:
         for vid, res in results.items():
             self.states[vid] = res
             self._track_path(vid, res[libsumo.VAR_LANE_ID])
-        self._arrive_switched()
+        arrive_switched(self)
         # Vehicles moved by moveTo report their new lane only after the next read; refresh them.
         for vid in self.api.simulation.getDepartedIDList():
             info = self.vehicles.get(vid)
             if info is not None and info.start_s is not None and vid in self.states:
-                self.states[vid] = self._read(vid)
+                self.states[vid] = self.read_state(vid)
                 self._track_path(vid, self.states[vid][libsumo.VAR_LANE_ID])
         for vid in [vid for vid, junction in self.owner.items() if not self._ownable(vid, junction)]:
             self._release(vid)  # it left its owner's junction: SUMO drives it until another takes it
@@ -210,7 +211,7 @@ class SumoSimulation:
         if role == PASSING:
             pid = self._lane_to_paths[lane][0]
             if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane and info.driver != "human":
-                self._switch_exit_lane(vid, lane, pid, info)
+                switch_exit_lane(self, vid, lane, pid, info)
                 return
             self.current_path[vid] = pid
             return
@@ -287,51 +288,8 @@ class SumoSimulation:
         self.vehicles[vid] = info
         return info
 
-    def _switch_exit_lane(self, vid: str, lane: str, pid: str, info: VehicleInfo) -> None:
-        """Put a vehicle that entered the junction on the internal lane of its chosen connection.
-
-        The internal lanes of one approach lane's connections start at the same point, so the
-        move changes only which connection the vehicle follows (a SUMO-documented use of moveTo).
-        """
-        target_id = self.movements.siblings.get((pid, info.exit_lane))
-        if target_id is None:
-            return
-        old, target = self.paths[pid], self.paths[target_id]
-        s = self.arc(old, lane, self.api.vehicle.getLanePosition(vid))
-        new_lane, new_pos = self.lane_position(target, min(s, target.s_exit - 0.01))
-        self.api.vehicle.moveTo(vid, new_lane, new_pos)
-        if info.intended_path is not None:
-            # a route of the generated net ends exit_distance into the exit lane, which moveTo
-            # forgets; a route on a net file ends where the user's route does, which it keeps
-            self.switched.add(vid)
-        self.current_path[vid] = target_id
-        self.states[vid] = self._read(vid)
-
-    def _arrive_switched(self) -> None:
-        """End the trip of vehicles whose connection was switched, at the routes' arrivalPos.
-
-        SUMO 1.28 resets a vehicle's arrival position to the end of its route when moveTo puts
-        it on another junction-internal lane (checked with setRoute, changeTarget and
-        setParameter, none of which restores it), so the adapter applies the same rule itself:
-        the vehicle arrives once its front is ``exit_distance`` into the exit lane. SUMO then
-        writes its tripinfo as for any arrival.
-        """
-        for vid in list(self.switched):
-            st = self.states.get(vid)
-            if st is None:
-                self.switched.discard(vid)
-                continue
-            on_exit = st[libsumo.VAR_LANE_ID] == self.paths[self.current_path[vid]].lanes[-1]
-            if on_exit and st[libsumo.VAR_LANEPOSITION] >= self.exit_distance:
-                self.api.vehicle.unsubscribe(vid)  # a removed vehicle's subscription fails the next step
-                self.api.vehicle.remove(vid, libsumo.REMOVE_ARRIVED)
-                self.arrived[vid] = self.time
-                self.states.pop(vid, None)
-                self.commands.pop(vid, None)
-                self.switched.discard(vid)
-
     # --- read ------------------------------------------------------------------------------
-    def _read(self, vid: str) -> dict:
+    def read_state(self, vid: str) -> dict:
         """One vehicle's state read directly (not from this step's subscription)."""
         veh = self.api.vehicle
         get = {libsumo.VAR_POSITION: veh.getPosition, libsumo.VAR_SPEED: veh.getSpeed,

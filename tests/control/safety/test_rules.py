@@ -34,7 +34,7 @@ def test_every_rule_states_its_invariant_trigger_action_setting_and_test():
     each test it names exists."""
     rows = rule_table()
     assert [r["name"] for r in rows] == [rule.name for rule in RULES]
-    assert len({r["name"] for r in rows}) == len(rows) == 9
+    assert len({r["name"] for r in rows}) == len(rows) == 10
     assert {r["kind"] for r in rows} == {SAFETY, LIVENESS}
     for row in rows:
         assert all(row[key] for key in ("invariant", "trigger", "action", "setting", "test")), row["name"]
@@ -118,3 +118,40 @@ def test_the_docs_rules_table_is_what_the_rules_say():
     run = subprocess.run([sys.executable, str(ROOT / "scripts" / "rules_table.py"), "--check"], cwd=ROOT,
                          capture_output=True, text=True)
     assert run.returncode == 0, run.stdout
+
+
+def test_no_drive_into_a_standing_body(paths, movements, conflict_table):
+    """standing_obstacle: A, in the junction 2 m past its stop line at 3 m/s on its left turn, has
+    entered first; human H stands inside their crossing, its body across A's path. Whatever the
+    crossing rules rank, A stops short of H's body: its front stays ``margin`` and more short of
+    the first point where its swept body would touch H's (at most its braking), and a
+    standing vehicle off its path leaves it alone."""
+    from intersection_cosim.models.bodies import bodies_overlap, body_corners
+
+    t = conflict_table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    s_a = float(t.s_stop[p]) + 2.0  # [m]
+    out = {}
+    for s_h in (float(t.zone_in[q, p]) + 3.0, 5.0):  # inside the crossing; far back on its approach
+        world = make_world(paths, 1.0, [("A", LEFT, s_a, 3.0), ("H", STRAIGHT, s_h, 0.0)])
+        world.heading = np.array([float(paths[LEFT].heading_at(s_a)), float(paths[STRAIGHT].heading_at(s_h))])
+        world.role, world.human = ["passing", "ready"], np.array([False, True])
+        world.lanes = [paths[LEFT].lane_at(s_a)[0], paths[STRAIGHT].lane_at(s_h)[0]]
+        f = FilterUnderTest(GS, t.s_stop, 0.1)
+        f.record_entries(world)
+        plans = {"A": Plan.from_accelerations(s_a, 3.0, np.full(PROBLEM.steps, 1.0), PROBLEM.dt)}
+        d = Decisions(accel={"A": 1.0})
+        f.apply(world, _relations(world, movements, t), plans, {}, d)
+        out[s_h > 5.0] = d.accel["A"], f.result.lowered.get("A"), world
+
+    def body(path, s, length=MODEL.vehicle_length):  # [m] a body with its front at s on path
+        xy, h = paths[path].point_at(np.array([s])), paths[path].heading_at(np.array([s]))
+        return body_corners(xy[:, 0], xy[:, 1], h, np.array([length]), np.array([MODEL.vehicle_width]))
+
+    assert out[False][:2] == (1.0, None)
+    a, rule, world = out[True]
+    assert rule == "standing_obstacle" and PROBLEM.a_min <= a < 0.0
+    stop = s_a + 3.0 ** 2 / (2.0 * -a)  # [m] where A's front stops
+    h = body(STRAIGHT, float(world.s[1]))
+    assert not bodies_overlap(body(LEFT, stop + GS.margin), h)[0]  # a margin short of H's body
+    assert bodies_overlap(body(LEFT, stop + GS.margin + 2.0), h)[0]  # and not far short of it

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from intersection_cosim.control.safety.rules import (box_clear, crossing_order, exit_room, human_crossing,
                                                      lane_speed_limit, leader_gap, pedestrians,
-                                                     priority_inheritance, stalled_box)
+                                                     priority_inheritance, stalled_box, standing_obstacle)
 from intersection_cosim.control.safety.rules.base import LIVENESS, SAFETY, Rule, describe
 
 RULES: tuple[Rule, ...] = (
@@ -20,6 +20,7 @@ RULES: tuple[Rule, ...] = (
     exit_room.RULE,
     priority_inheritance.RULE,  # before the crossings: the ranks they read
     human_crossing.RULE,
+    standing_obstacle.RULE,
     stalled_box.RULE,
     crossing_order.RULE,
     box_clear.RULE,

@@ -1,0 +1,56 @@
+"""Exit-lane switches inside a managed junction: a vehicle moved onto the internal lane of the
+connection to the exit lane its controller chose, and the end of such a vehicle's trip at the
+routes' arrival position (which SUMO forgets on the move). ``sim`` is the running
+:class:`~intersection_cosim.sim.sumo.SumoSimulation`.
+"""
+
+from __future__ import annotations
+
+import libsumo
+
+from intersection_cosim.sim.vehicles import VehicleInfo
+
+
+def switch_exit_lane(sim, vid: str, lane: str, pid: str, info: VehicleInfo) -> None:
+    """Put a vehicle that entered the junction on the internal lane of its chosen connection.
+
+    The internal lanes of one approach lane's connections start at the same point, so the
+    move changes only which connection the vehicle follows (a SUMO-documented use of moveTo).
+    """
+    target_id = sim.movements.siblings.get((pid, info.exit_lane))
+    if target_id is None:
+        return
+    old, target = sim.paths[pid], sim.paths[target_id]
+    s = sim.arc(old, lane, sim.api.vehicle.getLanePosition(vid))
+    new_lane, new_pos = sim.lane_position(target, min(s, target.s_exit - 0.01))
+    sim.api.vehicle.moveTo(vid, new_lane, new_pos)
+    if info.intended_path is not None:
+        # a route of the generated net ends exit_distance into the exit lane, which moveTo
+        # forgets; a route on a net file ends where the user's route does, which it keeps
+        sim.switched.add(vid)
+    sim.current_path[vid] = target_id
+    sim.states[vid] = sim.read_state(vid)
+
+
+def arrive_switched(sim) -> None:
+    """End the trip of vehicles whose connection was switched, at the routes' arrivalPos.
+
+    SUMO 1.28 resets a vehicle's arrival position to the end of its route when moveTo puts
+    it on another junction-internal lane (checked with setRoute, changeTarget and
+    setParameter, none of which restores it), so the adapter applies the same rule itself:
+    the vehicle arrives once its front is ``exit_distance`` into the exit lane. SUMO then
+    writes its tripinfo as for any arrival.
+    """
+    for vid in list(sim.switched):
+        st = sim.states.get(vid)
+        if st is None:
+            sim.switched.discard(vid)
+            continue
+        on_exit = st[libsumo.VAR_LANE_ID] == sim.paths[sim.current_path[vid]].lanes[-1]
+        if on_exit and st[libsumo.VAR_LANEPOSITION] >= sim.exit_distance:
+            sim.api.vehicle.unsubscribe(vid)  # a removed vehicle's subscription fails the next step
+            sim.api.vehicle.remove(vid, libsumo.REMOVE_ARRIVED)
+            sim.arrived[vid] = sim.time
+            sim.states.pop(vid, None)
+            sim.commands.pop(vid, None)
+            sim.switched.discard(vid)
