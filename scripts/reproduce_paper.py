@@ -55,6 +55,7 @@ CONTROLLERS = {"nash": "NE", "stackelberg": "SE"}
 PAIRS = {"case1": ["V1-V2", "V1-V3"], "case2": ["V1-V2", "V1-V3", "V3-V4"]}
 MIN_CUT = 0.40  # the ETM must cut the mean compute time per step by at least this
 MIN_SKIP = 0.20  # ... where it leaves out at least this share of the games played without it (else n/a)
+SSM_TABLE_COLUMNS = ("min_ttc", "pet", "min_ttc_ssm", "time_min_ttc_ssm", "pet_ssm")  # per pair, from pairs.csv
 SE_SLACK = 0.2  # [s] Stackelberg min TTC may be this much below Nash's
 BUDGET_MS = 2000.0  # [ms] default control-step budget of the paper runs (module docstring)
 # [s] the paper's min TTC, Tables II and IV: (case, scenario, solver, pair) -> value
@@ -226,12 +227,34 @@ def ttc_table(runs: Runs, cases: list[str], family: str) -> pd.DataFrame:
             p = runs.pairs(case, ctrl)
             for pair in PAIRS[family]:
                 row = None if p is None else p.loc[p["pair"] == pair]
-                vals = ([row[c].iloc[0] if c in row else np.nan for c in ("min_ttc", "pet", "min_ttc_ssm", "pet_ssm")]
-                        if row is not None and not row.empty else ["/"] * 4)
+                vals = ([row[c].iloc[0] if c in row else np.nan for c in SSM_TABLE_COLUMNS]
+                        if row is not None and not row.empty else ["/"] * len(SSM_TABLE_COLUMNS))
                 paper = PAPER_TTC.get((family, case.split("_")[1], label, pair))
                 rows.append([case.split("_")[1], label, pair, "/" if paper is None else paper, *vals])
-    return pd.DataFrame(rows, columns=["scenario", "solver", "pair", "paper_min_ttc", "min_ttc", "pet",
-                                       "min_ttc_ssm", "pet_ssm"])
+    return pd.DataFrame(rows, columns=["scenario", "solver", "pair", "paper_min_ttc", *SSM_TABLE_COLUMNS])
+
+
+def ssm_start_note(runs: Runs, cases: list[str]) -> str:
+    """A sentence on the pairs whose SSM min TTC was taken before the controller's first decision
+    acted (at or before the run's first control step): the vehicles' speeds as inserted."""
+    hits, total = [], 0
+    for case in cases:
+        for ctrl, lab in CONTROLLERS.items():
+            p, steps = runs.pairs(case, ctrl), runs.csv(case, ctrl, "steps")
+            if p is None or steps is None or not len(steps) or "time_min_ttc_ssm" not in p:
+                continue
+            timed = p[p["min_ttc_ssm"].notna()]
+            total += len(timed)
+            early = timed[timed["time_min_ttc_ssm"] <= steps["time"].iloc[0] + 1e-9]
+            hits += [f"{case} {lab} {r.pair} {r.min_ttc_ssm:.2f} s at t = {r.time_min_ttc_ssm:.2f} s"
+                     for r in early.itertuples()]
+    if not hits:
+        return ""
+    return (f"SSM's min TTC of {len(hits)} of the {total} pairs with one was taken before the first decision acted "
+            f"({'; '.join(hits)}): the vehicles' speeds as inserted put them in the conflict area at once. After "
+            "the first decisions they no longer would at constant speed, and SSM defines no crossing TTC then, "
+            "so these cells are the scenario's initial state, the same for every kappa and equilibrium, not a "
+            "margin the controller kept (ours, `min_ttc`, is taken over the whole approach).")
 
 
 def ratio_table(runs: Runs, cases: list[str]) -> pd.DataFrame:
@@ -469,8 +492,8 @@ def write_report(out: Path, cases, tables, figs, failures, wall, budget_ms, mode
              "SUMO's SSM device (an empty cell: no conflict recorded).", ""]
     if failures:
         parts += ["## Failed runs", ""] + [f"- {n}: {e}" for n, e in failures.items()] + [""]
-    for title, df in tables:  # units in the headers, every column rounded alike (report/reporting.py)
-        parts += [f"## {title}", "", markdown_table(df), ""]
+    for title, df, note in tables:  # units in the headers, every column rounded alike (report/reporting.py)
+        parts += [f"## {title}", "", markdown_table(df), ""] + ([note, ""] if note else [])
     parts += ["## Figures", ""] + [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figs] + [""]
     parts += ["## Defaults", "", "Calibrated defaults, `settings.model`:", "",
               md_table(pd.DataFrame(list(model.items()), columns=["field", "value"])), "",
@@ -525,10 +548,12 @@ def main(argv: list[str] | None = None) -> int:
     tt_on = tt[tt["etm"]].drop(columns="etm")
     ratios = ratio_table(runs, cases)
     ratios.to_csv(out / "ratios.csv", index=False)
-    write_report(out, cases, [("Table II (Case 1): min TTC and PET, the paper's beside ours", t2),
-                              ("Table IV (Case 2): min TTC and PET, the paper's beside ours", t4),
-                              ("Margins against scenario A: the paper's min TTC ratio beside ours", ratios),
-                              ("Travel times (ETM on)", tt_on), ("Orderings", order)],
+    write_report(out, cases, [("Table II (Case 1): min TTC and PET, the paper's beside ours", t2,
+                               ssm_start_note(runs, [c for c in cases if c.startswith("case1")])),
+                              ("Table IV (Case 2): min TTC and PET, the paper's beside ours", t4,
+                               ssm_start_note(runs, [c for c in cases if c.startswith("case2")])),
+                              ("Margins against scenario A: the paper's min TTC ratio beside ours", ratios, ""),
+                              ("Travel times (ETM on)", tt_on, ""), ("Orderings", order, "")],
                  figs, failures, time.perf_counter() - t0, args.budget_ms, *defaults(runs, cases))
     print(order.to_string(index=False))
     print(f"report: {out / 'report.md'} ({time.perf_counter() - t0:.0f} s)")

@@ -122,6 +122,8 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,
             "min_ttc_ssm": _num(pairs["min_ttc_ssm"].min()) if len(pairs) else None,
+            # [s] when SSM took it (at the first step: the vehicles' speeds as inserted, before any decision)
+            "time_min_ttc_ssm": _ssm_time(pairs),
             # [ms] per control step, summed over the junctions' controllers
             "compute_ms_median": _num(step_compute.median()),
             "compute_ms_p95": _num(step_compute.quantile(0.95)),
@@ -130,6 +132,14 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
     if gui is not None:
         summary["gui"] = {"simulator": "sumo-gui through TraCI", "delay_ms": gui.delay_ms}
     return summary
+
+
+def _ssm_time(pairs) -> float | None:
+    """[s] the time of the run's smallest SSM min TTC (None: SSM recorded no TTC)."""
+    ttc = pairs["min_ttc_ssm"].astype(float) if len(pairs) else None
+    if ttc is None or not ttc.notna().any():
+        return None
+    return _num(pairs.loc[ttc.idxmin(), "time_min_ttc_ssm"])
 
 
 def _num(x) -> float | None:

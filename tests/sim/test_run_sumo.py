@@ -40,7 +40,7 @@ def test_csv_columns(case1a_run):
     assert cols["trajectories.csv"][:9] == ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role"]
     assert cols["vehicles.csv"] == ["vehicle", "approach", "movement", "kappa", "depart", "arrival",
                                     "travel_time", "time_loss", "exit_lane", "collided", "driver", "vtype"]
-    assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm",
+    assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "time_min_ttc_ssm",
                                  "pet_ssm", "game_steps", "driver_a", "driver_b", "vtype_a", "vtype_b"]
     assert cols["steps.csv"] == ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback",
                                      "deferred", "qp_solves", "junction"]
