@@ -21,7 +21,7 @@ from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.results.collision_counts import collision_counts
 from intersection_cosim.results.layout import (COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE, SSM_FILE, STEP_COLUMNS, STEPS_FILE,
-                                               TRAJECTORIES_FILE, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
+                                               TRAJECTORIES_FILE, TRAJECTORIES_GZ, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
                                                OVERLAPS_FILE, WALKER_COLUMNS, WALKERS_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.overlaps import OVERLAP_COLUMNS
@@ -73,10 +73,14 @@ def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str
     return out
 
 
-def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics: Diagnostics) -> None:
+def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics: Diagnostics,
+                 compress: bool = False) -> None:
     """Write the run's CSVs into ``folder`` (convergence.csv only for a controller that solves games,
-    walkers.csv only for a run with people at its crossings)."""
-    tables.traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
+    walkers.csv only for a run with people at its crossings); with ``compress`` the trajectories,
+    most of a run's bytes, as trajectories.csv.gz."""
+    traj = folder / (TRAJECTORIES_GZ if compress else TRAJECTORIES_FILE)
+    tables.traj.to_csv(traj, index=False, float_format="%.4f",
+                       compression={"method": "gzip", "mtime": 0} if compress else None)  # mtime 0: same bytes
     if diagnostics.convergence is not None:
         rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
                 for r in diagnostics.convergence for m, res in enumerate(r.residuals)]

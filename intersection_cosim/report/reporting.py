@@ -26,7 +26,7 @@ from intersection_cosim.report.run_figures import trajectory_figure, velocity_fi
 from intersection_cosim.report.solver_figures import compute_time_histogram
 from intersection_cosim.report.sweep_figures import kappa_heatmap, kappa_lines, kappa_tradeoff, metric_label
 from intersection_cosim.results.layout import (COMPARISON_FILE, PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE,
-                                               TRAJECTORIES_FILE, VEHICLES_FILE, run_folder)
+                                               VEHICLES_FILE, run_folder, trajectories_file)
 from intersection_cosim.results.sweep_folder import load_spec, sweep_table
 
 REPORT_FILE = "report.md"
@@ -329,7 +329,7 @@ def _junction_section(folder: Path, summary: dict, steps: pd.DataFrame, figs: Pa
 
     net = folder / NET_FILE
     movements = load_movements(net, tuple(network["junctions"]), network["control_range"])
-    traj = pd.read_csv(folder / TRAJECTORIES_FILE, usecols=["vehicle", "path", "speed"], dtype={"vehicle": str})
+    traj = pd.read_csv(trajectories_file(folder), usecols=["vehicle", "path", "speed"], dtype={"vehicle": str})
     v_free = float(settings.get("model", {}).get("v_max", 10.0))  # [m/s]
     table = junction_table(steps, traj, movements, settings["controller"]["period"], v_free)
     figures.append(("junctions coloured by the mean delay of the vehicles that passed them",
