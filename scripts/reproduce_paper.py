@@ -47,6 +47,7 @@ from intersection_cosim.report import solver_figures  # noqa: E402
 from intersection_cosim.report.reporting import markdown_table  # noqa: E402
 from intersection_cosim.report.run_figures import trajectory_figure, velocity_figure  # noqa: E402
 from intersection_cosim.report.solver_figures import draw_ecdf  # noqa: E402
+from intersection_cosim.results.units import write_units  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ["case1_A", "case1_B", "case1_C", "case1_D", "case2_A", "case2_B"]
@@ -538,6 +539,7 @@ def main(argv: list[str] | None = None) -> int:
     tt, order = travel_times(runs, cases), orderings(runs, cases, all_runs)
     for name, df in (("table_ii", t2), ("table_iv", t4), ("travel_times", tt), ("orderings", order)):
         df.to_csv(out / f"{name}.csv", index=False)
+        write_units(out, {f"{name}.csv": df.columns})
     figdir = out / "figures"
     figdir.mkdir(exist_ok=True)
     for stale in figdir.glob("*.png"):  # figures of an earlier call (names may have changed)
@@ -548,6 +550,7 @@ def main(argv: list[str] | None = None) -> int:
     tt_on = tt[tt["etm"]].drop(columns="etm")
     ratios = ratio_table(runs, cases)
     ratios.to_csv(out / "ratios.csv", index=False)
+    write_units(out, {"ratios.csv": ratios.columns})
     write_report(out, cases, [("Table II (Case 1): min TTC and PET, the paper's beside ours", t2,
                                ssm_start_note(runs, [c for c in cases if c.startswith("case1")])),
                               ("Table IV (Case 2): min TTC and PET, the paper's beside ours", t4,

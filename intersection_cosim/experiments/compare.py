@@ -47,6 +47,7 @@ from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_
                                                   sweep_jobs)
 from intersection_cosim.results.layout import COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
+from intersection_cosim.results.units import write_units
 from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand, overview
 from intersection_cosim.results.sweep_folder import SweepSpec
 from intersection_cosim.scenario import scenario_from_dict
@@ -303,6 +304,7 @@ def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
     table = pd.DataFrame(rows, columns=columns).sort_values(["demand_veh_h", "scenario"], kind="stable")
     table = table.reset_index(drop=True)
     table.to_csv(out / TABLE_FILE, index=False, float_format="%.6g")
+    write_units(out, {TABLE_FILE: table.columns})
     figures = draw_figures(out, table, axes)
     write_report(out, table, figures)
     return table

@@ -26,6 +26,7 @@ from intersection_cosim.results.layout import (COLLISION_LOG_COLUMNS, COLLISION_
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.overlaps import OVERLAP_COLUMNS
 from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
+from intersection_cosim.results.units import csv_columns, write_units
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
 
@@ -95,6 +96,7 @@ def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics:
     tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
     tables.collision_log.to_csv(folder / COLLISION_LOG_FILE, index=False, float_format="%.4f")
     tables.overlaps.to_csv(folder / OVERLAPS_FILE, index=False, float_format="%.4f")
+    write_units(folder, csv_columns(folder))  # units.csv: the unit of every column above
 
 
 def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None,

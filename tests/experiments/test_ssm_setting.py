@@ -9,6 +9,7 @@ import pytest
 
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.scenario import load_scenario
+from tests.results.test_units import assert_declared
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 
@@ -38,6 +39,9 @@ def test_without_the_ssm_device_the_run_drives_the_same_and_records_no_ssm(tmp_p
     assert v1v2["min_ttc_ssm"] == pytest.approx(4.23) and v1v2["time_min_ttc_ssm"] == 0.0  # [s]
     assert json.loads((on / "summary.json").read_text())["metrics"]["time_min_ttc_ssm"] == 0.0
     assert p_off["time_min_ttc_ssm"].isna().all()
+    units = pd.read_csv(on / "units.csv", keep_default_na=False)  # a game controller's CSVs too
+    assert {"convergence.csv", "games.csv", "pairs.csv"} <= set(units["file"])
+    assert_declared(units)
     assert "device.ssm" in (on / "scenario.sumocfg").read_text()
     assert "device.ssm" not in (off / "scenario.sumocfg").read_text()
     summary = json.loads((off / "summary.json").read_text())

@@ -147,3 +147,14 @@ def test_the_runs_show_a_progress_bar_with_the_time_left(rp, tmp_path, monkeypat
     assert captured.out.count(": ran\n") == 4
     bar = captured.err.replace("\r", "\n").splitlines()[-1]
     assert "4/4" in bar and "<" in bar  # tqdm: done/total [elapsed<left]
+
+
+def test_every_table_the_report_writes_declares_its_units(rp, tmp_path):
+    from intersection_cosim.results.units import units_table
+    from tests.results.test_units import assert_declared
+
+    runs = _etm_runs(rp, tmp_path)
+    tables = {"table_ii.csv": rp.ttc_table(runs, rp.SCENARIOS, "case1"), "table_iv.csv": rp.ttc_table(runs, rp.SCENARIOS, "case2"),
+              "ratios.csv": rp.ratio_table(runs, rp.SCENARIOS), "travel_times.csv": rp.travel_times(runs, rp.SCENARIOS),
+              "orderings.csv": rp.orderings(runs, rp.QUICK, [])}
+    assert_declared(units_table({name: df.columns for name, df in tables.items()}))
