@@ -193,7 +193,6 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "throughput_veh_h": arrived / window * 3600.0 if window > 0 else math.nan,
             "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss) if ssm else math.nan,
             "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
-            # encounters SSM classified as a collision (their TTC 0 left out of ssm_min_ttc)
             "ssm_collision_encounters": int(ss["ssm_collision"].astype(bool).sum()) if ssm else math.nan,
             "collisions": collisions if mine else math.nan,
             "pedestrian_collisions": walkers_hit if mine else math.nan,
