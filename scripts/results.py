@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import datetime as dt
+import importlib.metadata
 import os
 import platform
 import re
@@ -120,9 +121,8 @@ def machine() -> str:
     except OSError:
         pass
     try:
-        import sumo  # the eclipse-sumo package
-        sumo_version = getattr(sumo, "__version__", "?")
-    except ImportError:
+        sumo_version = importlib.metadata.version("eclipse-sumo")
+    except importlib.metadata.PackageNotFoundError:
         sumo_version = "?"
     return (f"{platform.system()} {platform.machine()}, {cpu}, {os.cpu_count()} cores, "
             f"Python {platform.python_version()}, SUMO {sumo_version}")
@@ -159,8 +159,8 @@ def embed_report(report: Path, figures_to: Path, page_dir: Path) -> str:
         return f"![{m.group(1)}]({dest.relative_to(page_dir).as_posix()})"
 
     text = re.sub(r"!\[([^\]]*)\]\(([^)\s]+\.(?:png|gif|svg))\)", image, text)
-    text = re.sub(r"\[([^\]]+)\]\((?!https?:)([^)\s]+)\)", r"\1 (`\2`)", text)  # links into the work folder
-    return re.sub(r"^(#+) ", lambda m: "#" * min(len(m.group(1)) + 1, 6) + " ", text, flags=re.M)
+    text = re.sub(r"(?<!!)\[([^\]]+)\]\((?!https?:|figures/)([^)\s]+)\)", r"\1 (`\2`)", text)  # links into the work folder
+    return re.sub(r"^(#+) ", lambda m: "#" * min(len(m.group(1)) + 2, 6) + " ", text, flags=re.M)
 
 
 def run_page(page: Page, quick: bool, work: Path, run=subprocess.run) -> list[tuple[str, Path]]:
