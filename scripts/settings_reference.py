@@ -28,6 +28,9 @@ from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.settings import ProblemSettings, SolverSettings
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.report.animation import AnimationSettings
+from intersection_cosim.scenario.demand import GENERIC_FLOW_KEYS, GENERIC_VEHICLE_KEYS
+from intersection_cosim.scenario.flows import FLOW_KEYS
+from intersection_cosim.scenario.load import VEHICLE_KEYS
 from intersection_cosim.scenario.model import (ControllerSettings, HumanDriverSettings, NetworkSettings,
                                                ScenarioSettings, VehicleType)
 from intersection_cosim.sim.gui import GuiSettings
@@ -68,6 +71,14 @@ exactly one place, the dataclass: this page, the guide and the README never rest
 Each table of a scenario file (TOML) is one settings class; an unknown key, or a value of the
 wrong type or out of range, is refused with one line naming the file, the key and the value.
 `[-]` marks a dimensionless quantity, a switch or a name.
+"""
+
+
+DEMAND_HEAD = """## `[[vehicle]]` and `[[flow]]`
+
+The vehicles and flows of a scenario are its contents, not settings: each key's meaning and unit
+is in the guide ([scenarios](../guide/scenarios.md), [your own net](../guide/own-net.md)). The
+keys each table accepts (any other is an error):
 """
 
 
@@ -179,6 +190,13 @@ def page() -> str:
             parts.append(f"| `{r['name']}` | `{_cell(r['type'])}` | {_cell(r['unit'])} | `{_cell(r['default'])}` "
                          f"| {_cell(r['meaning'])} |")
         parts.append("")
+    parts.append(DEMAND_HEAD)
+    for table, where, keys in (("[[vehicle]]", "the generated paper net", VEHICLE_KEYS),
+                               ("[[vehicle]]", "a `[network] file` net", GENERIC_VEHICLE_KEYS),
+                               ("[[flow]]", "the generated paper net", FLOW_KEYS),
+                               ("[[flow]]", "a `[network] file` net", GENERIC_FLOW_KEYS)):
+        parts.append(f"- `{table}` on {where}: " + ", ".join(f"`{k}`" for k in keys))
+    parts.append("")
     return "\n".join(parts)
 
 
