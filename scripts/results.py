@@ -190,6 +190,9 @@ def write_page(page: Page, done: list[tuple[str, Path]], header: dict[str, str])
     parts = [f"# {page.title}", "",
              provenance(header["command"], [c for c, _ in done], header["commit"], header["date"], header["machine"]),
              "", page.about, ""]
+    if "--quick" in header["command"]:
+        parts += ["Written in quick mode: a small version of this benchmark (the commands below), for CI. "
+                  "`python scripts/results.py` runs the full one.", ""]
     for command, report in done:
         parts += [f"## `{command}`", ""]
         parts.append(embed_report(report, figures, DOCS) if report.is_file()
@@ -199,13 +202,25 @@ def write_page(page: Page, done: list[tuple[str, Path]], header: dict[str, str])
     return path
 
 
-def write_index(header: dict[str, str], quick: bool) -> Path:
-    mode = "quick (a small version of each benchmark: one seed, 30 s of demand)" if quick else "full"
+def field_of(text: str, field: str) -> str:
+    """The value of one field of a page's provenance block ("" if absent)."""
+    m = re.search(rf"^> - {field}: (.*)$", text, re.M)
+    return m.group(1).strip() if m else ""
+
+
+def write_index(header: dict[str, str]) -> Path:
+    """docs/results/index.md: every page with the command and date it was last written by."""
     lines = ["# Results", "", provenance(header["command"], [f"{p.name}.md" for p in PAGES], header["commit"],
                                          header["date"], header["machine"]), "",
-             f"Every page below is written by `python scripts/results.py` from the runs it makes, in {mode} mode; "
-             "each page names the commands it ran. Rerun the script to refresh them.", ""]
-    lines += [f"- [{p.title}]({p.name}.md): {p.about}" for p in PAGES]
+             "Every page below is written by `python scripts/results.py` from the runs it makes (`--quick`: a "
+             "small version of each benchmark, one seed and a short demand window); each page names the "
+             "commands it ran, its commit, date and machine. Rerun the script to refresh them.", "",
+             "| page | what it runs | written by | date |", "|---|---|---|---|"]
+    for page in PAGES:
+        path = DOCS / f"{page.name}.md"
+        text = path.read_text() if path.is_file() else ""
+        lines.append(f"| [{page.title}]({page.name}.md) | {page.about} | {field_of(text, 'command') or '(not yet)'} "
+                     f"| {field_of(text, 'date') or '-'} |")
     path = DOCS / "index.md"
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -233,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
     for page in PAGES:
         if page.name in wanted:
             print(f"wrote {write_page(page, run_page(page, args.quick, work), header)}", flush=True)
-    print(f"wrote {write_index(header, args.quick)}")
+    print(f"wrote {write_index(header)}")
     return 0
 
 

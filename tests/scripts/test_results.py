@@ -74,3 +74,19 @@ def test_a_failing_benchmark_stops_the_page(tmp_path):
 def test_an_unknown_page_is_one_line_and_exit_status_2(capsys):
     assert results.main(["--pages", "nope"]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+@pytest.mark.parametrize("command", [c for p in results.PAGES for c in p.full + p.quick if c.startswith(results.COSIM)])
+def test_every_benchmark_command_parses_and_names_shipped_scenarios(command, capsys):
+    import shlex
+
+    from intersection_cosim.cli import build_parser
+
+    argv = shlex.split(command.format(out="build/results/x"))[1:]
+    try:
+        build_parser().parse_args(argv)
+    except SystemExit:
+        raise AssertionError(capsys.readouterr().err) from None
+    for arg in argv:
+        if arg.endswith(".toml"):
+            assert (ROOT / arg).is_file(), arg
