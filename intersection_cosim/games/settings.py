@@ -35,7 +35,7 @@ class ProblemSettings:
     # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
     # max(min(w_accel_floor, w_accel), w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive
     # driver accelerates and brakes harder and a cautious one keeps its plan smoother (0: the same
-    # for all). 0.25: kappa 0.2 weighs 0.175, 0.8 0.025 (docs/decisions: "comfort by kappa")
+    # for all). 0.25: kappa 0.2 weighs 0.175, 0.8 0.025 (decision record 024)
     w_accel_kappa: float = 0.25
     # [s^4/m^2] least comfort weight of any player, where w_accel_kappa lowers it (it never
     # raises a weight above w_accel): its best response stays strictly convex (a kappa-0.9
@@ -71,8 +71,8 @@ class SolverSettings:
     sqp_steps_per_iteration: int = 1  # [-] SQP steps of each best response inside one iteration
     # [m/s^2] the Nash iteration has converged when no plan moved more than this in one iteration
     nash_tol: float = 1e-2
-    # [-] ... or when no best response lowered its player's true cost by more than this (relative)
-    # and no plan moved more than nash_cost_guard: every player is then within a second-order small
+    # [-] the Nash iteration has also converged when no best response lowered its player's true
+    # cost by more than this (relative) and no plan moved more than nash_cost_guard: every player is then within a second-order small
     # gain of its best response (a flat optimum may still shift a plan a little)
     nash_cost_rtol: float = 1e-3
     nash_cost_guard: float = 0.3  # [m/s^2] largest plan move the cost test of nash_cost_rtol accepts
