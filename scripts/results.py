@@ -175,6 +175,7 @@ def run_page(page: Page, quick: bool, work: Path, run=subprocess.run) -> list[tu
         elif argv[0] == COSIM:
             argv = [sys.executable, "-m", "intersection_cosim", *argv[1:]]
         print(f"[{page.name}] {command}", flush=True)
+        shutil.rmtree(out, ignore_errors=True)  # every page from runs of this code, none reused
         result = run(argv, cwd=ROOT)
         if getattr(result, "returncode", 0) not in (0, 1):  # 1: some runs failed, the report says which
             raise SystemExit(f"{page.name}: `{command}` exited with status {result.returncode}")
