@@ -4,8 +4,9 @@ passes where MkDocs is installed (pip install -e ".[docs]")."""
 from __future__ import annotations
 
 import re
-import shutil
+import importlib.util
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -45,8 +46,9 @@ def test_decision_records_are_numbered_and_indexed():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(shutil.which("mkdocs") is None, reason='mkdocs is not installed (pip install -e ".[docs]")')
+@pytest.mark.skipif(importlib.util.find_spec("mkdocs") is None,
+                    reason='mkdocs is not installed (pip install -e ".[docs]")')
 def test_mkdocs_build_strict_passes(tmp_path):
-    run = subprocess.run(["mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")], cwd=ROOT,
+    run = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")], cwd=ROOT,
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr[-3000:]

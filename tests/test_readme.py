@@ -74,7 +74,7 @@ def test_the_install_commands_are_the_ones_ci_runs():
 
 def test_a_first_session_follows_the_install_commands():
     start = README.index("## A first session")
-    assert README.index('pip install -e ".[test]"') < start < README.index("## What it does")
+    assert README.index('pip install -e ".[test,docs]"') < start < README.index("## What it does")
     section = README[start:README.index("\n## ", start + 1)]
     commands = [c for c in _bash_lines(section) if c.startswith("intersection-cosim ")]
     assert [shlex.split(c)[1] for c in commands] == ["run", "report", "animate", "sweep", "report"]
