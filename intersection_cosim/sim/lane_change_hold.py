@@ -7,16 +7,21 @@ SUMO never changes lanes on a junction's internal lanes; this extends that to th
 the vehicles a controller has taken over: from the junction's internal lanes on (SUMO changes
 lanes in the very step a vehicle moves onto the next lane) and on the first lane after it, lane
 changes are off until the rear is ``LANE_CHANGE_CLEARANCE`` past that lane's start; then the
-controlled vehicles' lane-change mode applies again.
+controlled vehicles' lane-change mode applies again. A lane after a junction shorter than a body
+cannot be left with the rear clear; there the hold ends ``LANE_END_ROOM`` before the lane's end,
+so a vehicle that must change lanes to follow its route does not stand there for ever.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import libsumo
 
 LANE_CHANGE_CLEARANCE = 1.0  # [m] past the lane's start the rear must be before a lane change
+LANE_END_ROOM = 1.0  # [m] on a lane shorter than a body, the hold ends this far before its end: a
+#                      vehicle that must change lanes there to follow its route is not locked
 NO_LANE_CHANGE = 0  # SUMO lane-change mode: no change of its own
 
 
@@ -24,7 +29,8 @@ NO_LANE_CHANGE = 0  # SUMO lane-change mode: no change of its own
 class LaneChangeHold:
     """Which vehicles have their lane changes held, for one run."""
 
-    exit_lanes: frozenset[str]  # the first lane after each managed junction (the paths' exit lanes)
+    exit_lanes: Mapping[str, float]  # [m] the first lane after each managed junction (the paths' exit
+    #                                  lanes) and its length
     inside_lanes: frozenset[str]  # the managed junctions' internal lanes (the hold starts there: SUMO
     #                               changes lanes in the very step a vehicle moves onto the next lane)
     mode: int  # [-] the lane-change mode a controlled vehicle has outside the hold
@@ -39,8 +45,9 @@ class LaneChangeHold:
                 self.held.discard(vid)
                 continue
             lane = st[libsumo.VAR_LANE_ID]
-            inside = lane in self.inside_lanes or (
-                lane in self.exit_lanes and st[libsumo.VAR_LANEPOSITION] < bodies[vid][0] + LANE_CHANGE_CLEARANCE)
+            length = self.exit_lanes.get(lane)  # [m]
+            inside = lane in self.inside_lanes or (length is not None and st[libsumo.VAR_LANEPOSITION] < min(
+                bodies[vid][0] + LANE_CHANGE_CLEARANCE, length - LANE_END_ROOM))
             if inside and vid not in self.held:
                 api.vehicle.setLaneChangeMode(vid, NO_LANE_CHANGE)
                 self.held.add(vid)

@@ -116,7 +116,8 @@ class SumoSimulation:
         self._watched = lane_junctions(self.api, watched_lanes(self.api, self.movements))
         if self.onboard is not None and self.onboard.enabled:
             self.guard = OnboardGuard(self.api, self.onboard, self.step_length)
-        self._hold = LaneChangeHold(frozenset(p.lanes[-1] for p in self.paths.values()),
+        exits = {path.lanes[-1] for path in self.paths.values()}
+        self._hold = LaneChangeHold({lane: self.api.lane.getLength(lane) for lane in exits},
                                     frozenset(lane for lane in self._watched if lane.startswith(":")),
                                     self.lane_change_mode)
 
