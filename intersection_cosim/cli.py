@@ -122,6 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     run.add_argument("--gui", action="store_true",
                      help="show the run live in sumo-gui (through TraCI); the outputs are the same")
+    run.add_argument("--quiet", action="store_true", help="do not print SUMO's first warnings (they stay in sumo.log)")
     run.add_argument("--gui-delay", type=_non_negative_float, default=50.0, metavar="MS",
                      help="[ms] sumo-gui's pause per SUMO step with --gui (default 50: about real time)")
 
@@ -244,10 +245,17 @@ def _cmd_run(args) -> int:
     summary = run_scenario(scn, out, force=args.force, gui=gui)
     c = summary["counts"]
     k = summary["collisions"]
-    print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions "
+    print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived ({c['departed']} inserted, "
+          f"{c['not_inserted']} never inserted, {c['never_arrived']} inserted but not arrived), "
+          f"{c['collisions']} collisions "
           f"({k['sumo_pairs_commanded']} pairs with a controlled vehicle, {k['sumo_pairs_uncommanded']} without; "
           f"our overlap check: {k['overlap_pairs_commanded']} / {k['overlap_pairs'] - k['overlap_pairs_commanded']}), "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
+    warned = summary.get("sumo_warnings") or {}
+    if warned.get("warnings") and not args.quiet:
+        kinds = len(warned["by_kind"])
+        print(f"{out}: SUMO warned {warned['warnings']} times ({kinds} kinds, every one in {out / 'sumo.log'}); first:")
+        print("\n".join(f"  {line}" for line in warned["first"]))
     if (end := summary.get("ended_early")) is not None:
         why = (f"all {end['vehicles']} vehicles in the network stood still from t={end['since']:.1f} s (a deadlock)"
                if end["reason"] == "deadlock" else f"the run held {end['peak_gb']:.1f} GB (scenario.memory_limit)")

@@ -26,6 +26,7 @@ REPLAY_DIR = "replay"  # the exported config's SUMO outputs go here (relative to
 # SUMO option -> file name of each SUMO output of a run (in the run folder; in REPLAY_DIR on replay)
 SUMO_OUTPUT_FILES = {"tripinfo-output": "tripinfo.xml", "collision-output": "collisions.xml",
                      "device.ssm.file": "ssm.xml"}
+SUMO_LOG_FILE = "sumo.log"  # SUMO's warnings and errors of a run (its --error-log), in the run folder
 REPLAY_README = """This folder receives SUMO's outputs when scenario.sumocfg (one level up) is opened with sumo or
 sumo-gui. That replay runs SUMO's own driver model on the run's net and routes, NOT the game
 controller, so its outputs differ from the run's own tripinfo.xml, ssm.xml and collisions.xml, which
@@ -75,8 +76,11 @@ def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow
                 for fv in flow_vehicles]
     types = {v.id: sumo_type(scn.vtype(v.vtype), v.driver) for v in scn.vehicles}
     types |= {fv["id"]: sumo_type(scn.vtype(fv.get("vtype")), fv.get("driver", "av")) for fv in flow_vehicles}
+    begin = scn.scenario.begin or 0.0  # [s] the scenario's own departs count from it
     for entry in entries:
         entry[2]["type"] = types[entry[1]]
+        if begin:
+            entry[2]["depart"] = f"{float(entry[2]['depart']) + begin:.2f}"
     entries.sort(key=lambda e: (e[0], e[1]))
     for _, _, attrs, edges in entries:
         el = ET.SubElement(root, "vehicle", attrs)
@@ -166,32 +170,35 @@ def _flow_entry(fv: dict) -> RouteEntry:
     return fv["depart"], fv["id"], attrs, " ".join(fv["route"])
 
 
-def route_files(scn: Scenario) -> list[str]:
+def route_files(scn: Scenario, user_routes: str | None = None) -> list[str]:
     """The route files SUMO loads for a run of ``scn``: the run's own (ROUTE_FILE, relative to the
-    run folder), then the user's ``[network] routes`` file (absolute), if any. When a [[vehicle]]
-    or [[flow]] names a vType of the user's file, that file comes first: SUMO must read the vType
-    before the first vehicle of it."""
+    run folder), then the user's ``[network] routes`` file (absolute; ``user_routes`` instead if
+    given: its windowed copy), if any. When a [[vehicle]] or [[flow]] names a vType of the user's
+    file, that file comes first: SUMO must read the vType before the first vehicle of it."""
     if scn.network.routes is None:
         return [ROUTE_FILE]
+    theirs_file = user_routes or scn.network.routes
     theirs = {vt.id for vt in scn.vtypes if vt.from_routes}
     if any(spec.vtype in theirs for spec in (*scn.vehicles, *scn.flows)):
-        return [scn.network.routes, ROUTE_FILE]
-    return [ROUTE_FILE, scn.network.routes]
+        return [theirs_file, ROUTE_FILE]
+    return [ROUTE_FILE, theirs_file]
 
 
 def run_output_options(folder: Path, ssm: bool = True) -> list[str]:
     """SUMO command-line options that write the run's own outputs into ``folder`` (absolute paths);
-    without ``ssm`` (``[scenario] ssm = false``: no SSM device) no SSM file.
+    without ``ssm`` (``[scenario] ssm = false``: no SSM device) no SSM file; SUMO's warnings and
+    errors go to SUMO_LOG_FILE there.
 
     Options on the command line override the config's, so the run's outputs land where they always
     did while the exported config keeps pointing at ``replay/``.
     """
     folder = Path(folder).resolve()
-    return [arg for option, name in SUMO_OUTPUT_FILES.items() if ssm or option != "device.ssm.file"
-            for arg in (f"--{option}", str(folder / name))]
+    outputs = [arg for option, name in SUMO_OUTPUT_FILES.items() if ssm or option != "device.ssm.file"
+               for arg in (f"--{option}", str(folder / name))]
+    return [*outputs, "--no-warnings", "false", "--error-log", str(folder / SUMO_LOG_FILE)]
 
 
-def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
+def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | None = None) -> None:
     """A config with every option of the run, its SUMO outputs going to ``replay/`` beside it.
 
     What it replays: ``sumo-gui -c scenario.sumocfg`` runs the same net, routes, step length, seed and
@@ -207,8 +214,10 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
     s = scn.scenario
     root = ET.Element("configuration")
     sections = {
-        "input": {"net-file": net_file, "route-files": ",".join(route_files(scn))},
-        "time": {"begin": "0", "end": f"{s.duration + s.drain:g}", "step-length": f"{s.step_length:g}"},
+        "input": {"net-file": net_file, "route-files": ",".join(route_files(scn, user_routes)),
+                  **({"additional-files": ",".join(scn.network.additional)} if scn.network.additional else {})},
+        "time": {"begin": f"{s.begin or 0.0:g}", "end": f"{(s.begin or 0.0) + s.duration + s.drain:g}",
+                 "step-length": f"{s.step_length:g}"},
         "processing": {"collision.check-junctions": "true", "collision.action": "warn",
                        "collision.mingap-factor": "0", "time-to-teleport": "-1",
                        "default.speeddev": "0"},

@@ -12,6 +12,7 @@ import numpy as np
 from intersection_cosim.control import registry
 from intersection_cosim.control.base import Controller
 from intersection_cosim.errors import InputError
+from intersection_cosim.experiments.route_window import write_window
 from intersection_cosim.experiments.files import ROUTE_FILE, SUMOCFG_FILE, write_routes, write_sumocfg
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net
@@ -51,7 +52,7 @@ def write_inputs(scn: Scenario, folder: Path) -> RunInputs:
     flow_vehicles = draw_drivers(scn, generate_flow_vehicles(scn, rng))
     _check_attacked(scn, flow_vehicles)
     write_routes(folder / ROUTE_FILE, scn, movements.paths, flow_vehicles)
-    write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn)
+    write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn, write_window(scn, folder))
     return RunInputs(controller, net, movements, flow_vehicles)
 
 

@@ -14,6 +14,7 @@ import pandas as pd
 from intersection_cosim import __version__
 from intersection_cosim.control.base import Diagnostics
 from intersection_cosim.experiments.closed_loop import Records, Simulated
+from intersection_cosim.experiments.route_window import file_counts
 from intersection_cosim.experiments.run_inputs import RunInputs
 from intersection_cosim.network.cache import sumo_version
 from intersection_cosim.network.conflicts import movement_conflicts
@@ -93,9 +94,25 @@ def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics:
     tables.overlaps.to_csv(folder / OVERLAPS_FILE, index=False, float_format="%.4f")
 
 
+def vehicle_counts(scn: Scenario, own: int, loaded: int, tripinfo: pd.DataFrame) -> dict:
+    """The run's vehicles, each counted once: ``vehicles`` the scenario's own ``own`` plus those of
+    its route file due to depart in the run (in the demand window; with ``keep_all_demand`` those
+    SUMO loaded), ``departed`` those SUMO inserted, ``arrived``, ``not_inserted`` (SUMO's backlog
+    at the end) and ``never_arrived`` (inserted, still driving at the end); and the route file's
+    ``in_files`` and ``in_window``. ``loaded`` [-] is how many SUMO loaded during the run."""
+    demand = file_counts(scn)
+    due = own + (demand["in_window"] if not scn.scenario.keep_all_demand else 0)
+    vehicles = max(due, loaded)
+    departed = int(tripinfo["depart"].notna().sum())
+    arrived = int(tripinfo["arrival"].ge(0).sum())
+    return {"vehicles": int(vehicles), **demand, "departed": departed, "arrived": arrived,
+            "not_inserted": int(max(0, vehicles - departed)), "never_arrived": departed - arrived}
+
+
 def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None,
-                onboard_caps: int | None = None) -> dict:
-    """The run's summary.json: what ran, with which settings and versions, counts and metrics."""
+                onboard_caps: int | None = None, counts: dict | None = None) -> dict:
+    """The run's summary.json: what ran, with which settings and versions, counts and metrics;
+    ``counts``: :func:`vehicle_counts` (None: the vehicles of ``infos`` and tripinfo's)."""
     s = scn.scenario
     tripinfo, collisions, steps = tables.tripinfo, tables.collisions, tables.steps
     vehicles, pairs = tables.vehicles, tables.pairs
@@ -104,8 +121,7 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
         "settings": resolved_settings(scn),
         "versions": versions(),
-        "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
-                   "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
+        "counts": {**(counts or vehicle_counts(scn, len(infos), 0, tripinfo)), "collisions": int(len(collisions)),
                    "control_steps": int(steps["time"].nunique()), "junction_steps": int(len(steps)),
                    "deadline_misses": int(steps["deadline_missed"].sum()),
                    "fallbacks": int(steps["fallback"].sum()),

@@ -90,6 +90,7 @@ class SumoSimulation:
     min_gaps: dict[str, float] = field(default_factory=dict)  # [m] SUMO's minGap per vehicle, read at departure
     collision_log: list[CollisionRecord] = field(default_factory=list)  # SUMO's collisions, step by step
     guard: OnboardGuard | None = None  # made by start() from ``onboard``
+    loaded: int = 0  # [-] vehicles SUMO has loaded from the route files so far (inserted or not)
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
     _people: CrossingPeople | None = None
     _watched: frozenset[str] = frozenset()  # the lanes in and around the managed junctions
@@ -156,6 +157,7 @@ class SumoSimulation:
                 raise RouteRefusal(self.time + self.step_length, str(exc)) from None
             raise
         self.time = self.api.simulation.getTime()
+        self.loaded += self.api.simulation.getLoadedNumber()
         self.collision_log += step_collisions(self.api, self.time, self.controlled())
         if self.people_first and self._people is not None:
             self._people.people_first()
