@@ -26,6 +26,7 @@ REPLAY_DIR = "replay"  # the exported config's SUMO outputs go here (relative to
 # SUMO option -> file name of each SUMO output of a run (in the run folder; in REPLAY_DIR on replay)
 SUMO_OUTPUT_FILES = {"tripinfo-output": "tripinfo.xml", "collision-output": "collisions.xml",
                      "device.ssm.file": "ssm.xml"}
+SIGNALS_FILE = "signals.add.xml"  # a signal baseline's traffic-light programmes, in the run folder
 SUMO_LOG_FILE = "sumo.log"  # SUMO's warnings and errors of a run (its --error-log), in the run folder
 REPLAY_README = """This folder receives SUMO's outputs when scenario.sumocfg (one level up) is opened with sumo or
 sumo-gui. That replay runs SUMO's own driver model on the run's net and routes, NOT the game
@@ -198,7 +199,8 @@ def run_output_options(folder: Path, ssm: bool = True) -> list[str]:
     return [*outputs, "--no-warnings", "false", "--error-log", str(folder / SUMO_LOG_FILE)]
 
 
-def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | None = None) -> None:
+def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | None = None,
+                  additional: tuple[str, ...] = ()) -> None:
     """A config with every option of the run, its SUMO outputs going to ``replay/`` beside it.
 
     What it replays: ``sumo-gui -c scenario.sumocfg`` runs the same net, routes, step length, seed and
@@ -206,16 +208,18 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | N
     game controller (or any other controller of this package), so the vehicles' motion differs
     from the run's trajectories. Its tripinfo, SSM and collision outputs go to ``replay/`` (made
     here, with a README), never over the run's own files. To watch the controller itself, use
-    ``intersection-cosim run SCENARIO --gui``.
+    ``intersection-cosim run SCENARIO --gui``. ``user_routes`` replaces the user's route file
+    (its windowed copy); ``additional`` are the run's own additional files, after the user's.
     """
     replay = Path(path).parent / REPLAY_DIR
     replay.mkdir(exist_ok=True)
     (replay / "README.txt").write_text(REPLAY_README)
     s = scn.scenario
+    adds = (*scn.network.additional, *additional)  # the user's, then the run's own (loaded last: in force)
     root = ET.Element("configuration")
     sections = {
         "input": {"net-file": net_file, "route-files": ",".join(route_files(scn, user_routes)),
-                  **({"additional-files": ",".join(scn.network.additional)} if scn.network.additional else {})},
+                  **({"additional-files": ",".join(adds)} if adds else {})},
         "time": {"begin": f"{s.begin or 0.0:g}", "end": f"{(s.begin or 0.0) + s.duration + s.drain:g}",
                  "step-length": f"{s.step_length:g}"},
         "processing": {"collision.check-junctions": "true", "collision.action": "warn",

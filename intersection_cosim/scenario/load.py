@@ -40,7 +40,7 @@ from intersection_cosim.settings import from_table
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
 TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "vehicle", "flow", "v2x")
-CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
+CONTROLLER_TABLES = ("game", "solver", "policy", "safety", "signals")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed", "driver", "vtype")
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error

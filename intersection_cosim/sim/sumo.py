@@ -338,6 +338,8 @@ class SumoSimulation:
         for vid, lane in decisions.exit_lane.items():
             if vid in self.vehicles and self.vehicles[vid].driver != "human":
                 self.vehicles[vid].exit_lane = lane
+        for tls, state in decisions.signals.items():
+            self.api.trafficlight.setRedYellowGreenState(tls, state)
         for vid in decisions.release:
             if vid in self.owner and decisions.owner.get(vid, self.owner[vid]) == self.owner[vid]:
                 self._release(vid)
