@@ -55,6 +55,7 @@ class Simulated(NamedTuple):
     collision_log: tuple = ()  # sim.collisions.CollisionRecord, SUMO's collisions step by step
     onboard_caps: int = 0  # [-] SUMO steps x vehicles in which the onboard guard lowered a command
     loaded: int = 0  # [-] vehicles SUMO loaded from the route files during the run (inserted or not)
+    emission_classes: dict | None = None  # vType -> SUMO emission class of its vehicles
 
 
 def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simulated:
@@ -100,7 +101,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: RunInputs, sim, scheduler, ob
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
         # the command line (the config's go to replay/)
-        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder, scn.scenario.ssm))
+        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder, s.ssm, s.duration + s.drain))
         if _signals_off(scn, inputs.controller):
             sim.switch_signals_off()
         if view is not None:
@@ -122,7 +123,8 @@ def _simulate(scn: Scenario, folder: Path, inputs: RunInputs, sim, scheduler, ob
             view.close()
     return Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None,
                      {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None,
-                     tuple(sim.collision_log), sim.guard.caps if sim.guard is not None else 0, sim.loaded)
+                     tuple(sim.collision_log), sim.guard.caps if sim.guard is not None else 0, sim.loaded,
+                     dict(sim.emission_classes))
 
 
 def _route_error(scn: Scenario, exc: RouteRefusal) -> Exception:

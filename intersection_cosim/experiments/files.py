@@ -11,6 +11,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from intersection_cosim.colors import HUMAN
+from intersection_cosim.results.layout import QUEUES_FILE
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_INDEX, exit_arm
@@ -185,10 +186,11 @@ def route_files(scn: Scenario, user_routes: str | None = None) -> list[str]:
     return [ROUTE_FILE, theirs_file]
 
 
-def run_output_options(folder: Path, ssm: bool = True) -> list[str]:
+def run_output_options(folder: Path, ssm: bool = True, window: float | None = None) -> list[str]:
     """SUMO command-line options that write the run's own outputs into ``folder`` (absolute paths);
     without ``ssm`` (``[scenario] ssm = false``: no SSM device) no SSM file; SUMO's warnings and
-    errors go to SUMO_LOG_FILE there.
+    errors go to SUMO_LOG_FILE there; with ``window`` [s] (the run's length) SUMO's queue output
+    aggregated over it (95th percentile and maximum per edge) and every vehicle's emissions device.
 
     Options on the command line override the config's, so the run's outputs land where they always
     did while the exported config keeps pointing at ``replay/``.
@@ -196,7 +198,12 @@ def run_output_options(folder: Path, ssm: bool = True) -> list[str]:
     folder = Path(folder).resolve()
     outputs = [arg for option, name in SUMO_OUTPUT_FILES.items() if ssm or option != "device.ssm.file"
                for arg in (f"--{option}", str(folder / name))]
-    return [*outputs, "--no-warnings", "false", "--error-log", str(folder / SUMO_LOG_FILE)]
+    log = ["--no-warnings", "false", "--error-log", str(folder / SUMO_LOG_FILE)]
+    if window is None:
+        return [*outputs, *log]
+    measures = ["--queue-output", str(folder / QUEUES_FILE), "--queue-output.aggregation", f"{window:g}",
+                "--queue-output.percentile", "95", "--device.emissions.probability", "1"]
+    return [*outputs, *log, *measures]
 
 
 def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | None = None,

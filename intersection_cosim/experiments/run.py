@@ -63,6 +63,7 @@ def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
     ended = simulated.records.ended
     summary["ended_early"] = ended[0]._asdict() if ended else None
     summary["sumo_warnings"] = read_sumo_log(folder / SUMO_LOG_FILE)
+    summary["engineer"]["emission_classes"] = simulated.emission_classes
     if simulated.v2x_counts is not None:
         summary["v2x"] = dict(simulated.v2x_counts)
     with open(folder / RUN_MARKER, "w") as fh:

@@ -17,16 +17,19 @@ from intersection_cosim.experiments.closed_loop import Records, Simulated
 from intersection_cosim.experiments.route_window import file_counts
 from intersection_cosim.experiments.run_inputs import RunInputs
 from intersection_cosim.network.cache import sumo_version
+from intersection_cosim.network.by_junction import path_junction
 from intersection_cosim.network.conflicts import movement_conflicts
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.results.collision_counts import collision_counts
-from intersection_cosim.results.layout import (COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
+from intersection_cosim.results.layout import (APPROACHES_FILE, QUEUES_FILE, COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE, SSM_FILE, STEP_COLUMNS, STEPS_FILE,
                                                TRAJECTORIES_FILE, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
                                                OVERLAPS_FILE, WALKER_COLUMNS, WALKERS_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.overlaps import OVERLAP_COLUMNS
-from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
+from intersection_cosim.results.engineer import approach_table, delay_summary, run_energy
+from intersection_cosim.results.sumo_outputs import (PEDESTRIAN_COLLISIONS, read_collisions, read_queues, read_ssm,
+                                                     read_tripinfo)
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
 
@@ -42,6 +45,7 @@ class RunTables(NamedTuple):
     pairs: pd.DataFrame
     collision_log: pd.DataFrame  # COLLISION_LOG_COLUMNS: SUMO's records, with who was under a controller
     overlaps: pd.DataFrame  # OVERLAP_COLUMNS: our own check's overlap events
+    approaches: pd.DataFrame  # results/engineer.py's APPROACH_COLUMNS: delay, LOS, queues per approach
 
 
 def result_tables(scn: Scenario, folder: Path, inputs: RunInputs, simulated: Simulated) -> RunTables:
@@ -59,7 +63,19 @@ def result_tables(scn: Scenario, folder: Path, inputs: RunInputs, simulated: Sim
                        {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()}, simulated.bodies)
     log = pd.DataFrame(list(simulated.collision_log), columns=COLLISION_LOG_COLUMNS)
     overlaps = pd.DataFrame(simulated.records.overlaps.rows, columns=list(OVERLAP_COLUMNS))
-    return RunTables(traj, steps, tripinfo, collisions, vehicles, pairs, log, overlaps)
+    junction_of = {vid: path_junction(inputs.movements, pid) for vid, pid in simulated.final_paths.items()
+                   if pid in inputs.paths}
+    approaches = approach_table(vehicles, junction_of, inputs.paths, read_queues(folder / QUEUES_FILE),
+                                scn.scenario.duration, los_table(scn, inputs.controller))
+    return RunTables(traj, steps, tripinfo, collisions, vehicles, pairs, log, overlaps, approaches)
+
+
+def los_table(scn: Scenario, controller) -> str:
+    """The HCM level-of-service table of a run: signalized under traffic lights (a signal
+    controller, or the lights a net keeps with ``signals = "on"``), else unsignalized."""
+    lit = controller.junction_type == "traffic_light" or (not scn.network.generated and scn.network.signals == "on"
+                                                         and not controller.controls_vehicles)
+    return "HCM signalized" if lit else "HCM unsignalized"
 
 
 def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str, MovementPath]) -> dict:
@@ -92,6 +108,7 @@ def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics:
     tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
     tables.collision_log.to_csv(folder / COLLISION_LOG_FILE, index=False, float_format="%.4f")
     tables.overlaps.to_csv(folder / OVERLAPS_FILE, index=False, float_format="%.4f")
+    tables.approaches.to_csv(folder / APPROACHES_FILE, index=False, float_format="%.4f")
 
 
 def vehicle_counts(scn: Scenario, own: int, loaded: int, tripinfo: pd.DataFrame) -> dict:
@@ -134,8 +151,11 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
         # SUMO's records, distinct vehicles and pairs, split by whether a vehicle under a
         # controller is involved, and our own overlap check beside them (results/collision_counts.py)
         "collisions": collision_counts(tables.collision_log, tables.overlaps),
+        # control delay and LOS, fuel and CO2 from SUMO's outputs (results/engineer.py); per approach: approaches.csv
+        "engineer": {**delay_summary(tables.approaches), **run_energy(tripinfo)},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
+            "mean_time_loss": _num(vehicles["time_loss"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,
             "min_ttc_ssm": _num(pairs["min_ttc_ssm"].min()) if len(pairs) else None,
             # [ms] per control step, summed over the junctions' controllers

@@ -91,6 +91,8 @@ class SumoSimulation:
     collision_log: list[CollisionRecord] = field(default_factory=list)  # SUMO's collisions, step by step
     guard: OnboardGuard | None = None  # made by start() from ``onboard``
     loaded: int = 0  # [-] vehicles SUMO has loaded from the route files so far (inserted or not)
+    emission_classes: dict[str, str] = field(default_factory=dict)  # vType -> its emission class (SUMO's HBEFA
+    #   model computes each vehicle's fuel and CO2 with it)
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
     _people: CrossingPeople | None = None
     _watched: frozenset[str] = frozenset()  # the lanes in and around the managed junctions
@@ -169,6 +171,9 @@ class SumoSimulation:
             self.bodies[vid] = (veh.getLength(vid), veh.getWidth(vid), veh.getAccel(vid), veh.getDecel(vid),
                                 veh.getEmergencyDecel(vid))
             self.min_gaps[vid] = veh.getMinGap(vid)
+            vtype = veh.getTypeID(vid)
+            if vtype not in self.emission_classes:
+                self.emission_classes[vtype] = veh.getEmissionClass(vid)
             if info.desired_speed is not None:
                 self.api.vehicle.setMaxSpeed(vid, info.desired_speed)
             if info.intended_path is None:
