@@ -17,6 +17,10 @@ collisions summed (``pedestrian_collisions``: those of a vehicle and a person); 
 departed vehicles that never arrived (a deadlock) or lost more than 60 s against free flow
 (tripinfo's timeLoss: a queue that does not drain), whatever the length of their routes, so the
 same bound holds on a small junction and on a long OSM approach;
+``control_delay``: the runs' control delay (SUMO's time loss of the trips through the junctions,
+results/engineer.py) averaged over the seeds, ``los`` its HCM level of service, ``queue_p95_max``
+the largest 95th-percentile queue of an approach [m], fuel and CO2 per arrived trip [g] of SUMO's
+emissions device; ``not_inserted``: vehicles due that SUMO never inserted (summed);
 ``ended_early``: runs that ended before their end because every vehicle stood still (a deadlock,
 experiments.deadlock) or past scenario.memory_limit (experiments.memory_guard); compute time per
 control step (summed over the junctions' controllers of a net with several) median and 95th
@@ -41,7 +45,8 @@ from intersection_cosim.experiments.axes import AXES
 from intersection_cosim.experiments.files import SSM_THRESHOLDS
 from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_spec, parse_controllers, run_sweep,
                                                   sweep_jobs)
-from intersection_cosim.results.layout import COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
+from intersection_cosim.results.engineer import level_of_service
+from intersection_cosim.results.layout import APPROACHES_FILE, COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
 from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand
 from intersection_cosim.results.sweep_folder import SweepSpec
@@ -54,7 +59,8 @@ DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo
 
 LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against free flow (or never arrived) is late or stuck
 
-COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
+COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived", "not_inserted",
+           "control_delay", "los", "queue_p95_max", "fuel_g_per_trip", "co2_g_per_trip",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
            "pedestrian_collisions", "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps",
@@ -140,6 +146,28 @@ def _min(values: np.ndarray) -> float:
     return float(values.min()) if len(values) else math.nan
 
 
+def _engineer(summary: dict, run: Path) -> dict:
+    """A run's engineer metrics (results/engineer.py): its summary's, with the largest
+    95th-percentile queue [m] of its approaches."""
+    eng = dict(summary.get("engineer") or {})
+    table = run / APPROACHES_FILE
+    eng["queue_p95_max"] = float(pd.read_csv(table)["queue_p95"].max()) if table.is_file() and table.stat().st_size else math.nan
+    return eng
+
+
+def _engineer_columns(runs: list[dict]) -> dict:
+    """Control delay [s] (mean over the seeds) and its HCM LOS, the largest 95th-percentile queue [m],
+    fuel and CO2 per arrived trip [g] (means over the seeds); NaN where no run has them."""
+    def mean(key: str) -> float:
+        return _mean(np.array([r.get(key) if r.get(key) is not None else np.nan for r in runs], float))
+
+    delay = mean("control_delay")
+    table = next((r["los_table"] for r in runs if r.get("los_table")), "")
+    return {"control_delay": delay, "los": level_of_service(delay, table) if table else "",
+            "queue_p95_max": mean("queue_p95_max"), "fuel_g_per_trip": mean("fuel_g_per_trip"),
+            "co2_g_per_trip": mean("co2_g_per_trip")}
+
+
 def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
     """The comparison rows of one scenario's sweep folder (one per controller, over its seeds)."""
     ttc_thr, _, pet_thr = SSM_THRESHOLDS
@@ -150,7 +178,8 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         mine = [j for j in jobs if j.controller == controller and j.axes == point and j.finished]
         veh, steps, ssm = [], [], []
         window = 0.0
-        vehicles = arrived = collisions = walkers_hit = late = ended = 0
+        vehicles = arrived = collisions = walkers_hit = late = ended = not_inserted = 0
+        engineer = []
         for job in mine:
             run = Path(job.run_dir)
             summary = json.loads((run / RUN_MARKER).read_text())
@@ -159,6 +188,8 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             window += float(duration)
             vehicles += int(counts.get("vehicles") or 0)
             arrived += int(counts.get("arrived") or 0)
+            not_inserted += int(counts.get("not_inserted") or 0)
+            engineer.append(_engineer(summary, run))
             collisions += int(counts.get("collisions") or 0)
             walkers_hit += int(counts.get("pedestrian_collisions") or 0)  # of the collisions: with a person
             ended += summary.get("ended_early") is not None
@@ -182,6 +213,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         rows.append({
             "scenario": spec.scenario_name, "demand_veh_h": demand, "controller": controller, **dict(point),
             "seeds": len(spec.seeds), "runs_ok": len(mine), "vehicles": vehicles, "arrived": arrived,
+            "not_inserted": not_inserted if mine else math.nan, **_engineer_columns(engineer),
             "travel_time_mean": _mean(tt), "travel_time_p95": _quantile(tt, 0.95),
             "time_loss_mean": _mean(v["time_loss"].to_numpy(float)),
             "throughput_veh_h": arrived / window * 3600.0 if window > 0 else math.nan,
