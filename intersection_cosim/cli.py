@@ -128,6 +128,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_sweep(sub)
     _add_compare(sub)
+    _add_benchmark(sub)
     report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder (compare writes its own)")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
     _add_animate(sub)
@@ -165,6 +166,29 @@ def _add_compare(sub) -> None:
                          "finished runs")
     _add_axis_options(compare)
     _add_executor_options(compare)
+
+
+def _add_benchmark(sub) -> None:
+    bench = sub.add_parser("benchmark", help="RESCO's real-demand scenarios under the chosen controllers")
+    bench.add_argument("suite", choices=["resco"], help="the benchmark suite (resco: TAPAS Cologne, InTAS Ingolstadt)")
+    bench.add_argument("--scenarios", default="cologne1,cologne3,cologne8,ingolstadt1,ingolstadt7,ingolstadt21,"
+                       "arterial4x4,grid4x4", help="comma-separated (default: all eight)")
+    bench.add_argument("--controllers", default="nash,stackelberg,fcfs,sumo-tls,sumo-actuated,max-pressure,sumo-priority",
+                       help="controller kinds, comma-separated (default: %(default)s)")
+    bench.add_argument("--seeds", default="1", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: 1)")
+    bench.add_argument("--window", choices=["full", "600"], default="full",
+                       help="full: the sumocfg's begin to end (one hour); 600: its first 600 s (default: full)")
+    bench.add_argument("--nets", help="folder of <name>/<name>.sumocfg (default: the installed sumo-rl's nets/RESCO)")
+    bench.add_argument("--out", required=True, help="benchmark folder; rerunning the same command skips finished runs")
+    _add_executor_options(bench)
+
+
+def _cmd_benchmark(args) -> int:
+    from intersection_cosim.experiments.benchmark import run_benchmark
+
+    return _interruptible(lambda: run_benchmark(args.scenarios, args.controllers, args.seeds, args.window, args.out,
+                                                args.nets, workers=args.workers, dask_scheduler=args.dask_scheduler,
+                                                progress=not args.no_progress))
 
 
 def _add_axis_options(parser) -> None:
@@ -307,7 +331,7 @@ def _cmd_animate(args) -> int:
     return 0
 
 
-COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare,
+COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare, "benchmark": _cmd_benchmark,
             "report": _cmd_report, "animate": _cmd_animate, "junctions": _cmd_junctions}
 
 

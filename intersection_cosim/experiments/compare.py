@@ -43,6 +43,7 @@ import pandas as pd
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.axes import AXES
 from intersection_cosim.experiments.files import SSM_THRESHOLDS
+from intersection_cosim.experiments.route_window import file_counts
 from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_spec, parse_controllers, run_sweep,
                                                   sweep_jobs)
 from intersection_cosim.results.engineer import level_of_service
@@ -128,6 +129,9 @@ def demand_veh_h(spec: SweepSpec) -> float:
     duration = dict(spec.overrides).get("duration", scn.scenario.duration)
     vehicles = sum(f.rate / 3600.0 * max(0.0, min(f.end, duration) - max(f.begin, 0.0)) for f in scn.flows)
     vehicles += len(scn.vehicles)
+    if scn.network.routes is not None:  # a route file's vehicles due in the window
+        vehicles += file_counts(dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, duration=duration)))[
+            "in_window"]
     return vehicles / duration * 3600.0
 
 
