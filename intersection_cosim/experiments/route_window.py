@@ -11,7 +11,7 @@ import sumolib
 
 from intersection_cosim.network.xml_files import xml_root
 from intersection_cosim.scenario.model import Scenario
-from intersection_cosim.scenario.sumocfg import DEMAND_TAGS, in_window, route_departs
+from intersection_cosim.scenario.sumocfg import DEMAND_TAGS, VEHICLE_TAGS, in_window, route_departs
 
 WINDOW_FILE = "demand.rou.xml"  # the windowed copy of the user's route file, in the run folder
 
@@ -57,11 +57,12 @@ def write_window(scn: Scenario, folder: Path) -> str | None:
 
 
 def file_counts(scn: Scenario) -> dict:
-    """The demand of ``scn``'s route file: ``in_files`` (every vehicle, trip or flow and person in
-    it) and ``in_window`` (those departing within [begin, begin + duration) [s]); zeros without one."""
+    """The vehicles of ``scn``'s route file: ``in_files`` (every vehicle, trip or flow in it; persons
+    are not counted) and ``in_window`` (those departing within [begin, begin + duration) [s]);
+    zeros without one."""
     s, routes = scn.scenario, scn.network.routes
     if routes is None:
         return {"in_files": 0, "in_window": 0}
-    departs = route_departs(routes)
+    departs = route_departs(routes, VEHICLE_TAGS)
     return {"in_files": len(departs),
             "in_window": sum(in_window(t, s.begin, s.begin + s.duration) for t in departs)}

@@ -20,6 +20,7 @@ from intersection_cosim.errors import InputError
 from intersection_cosim.network.xml_files import xml_root
 
 DEMAND_TAGS = ("vehicle", "trip", "flow", "person", "personFlow", "container", "containerFlow")
+VEHICLE_TAGS = ("vehicle", "trip", "flow")  # the demand elements that are vehicles
 
 
 @dataclass(frozen=True)
@@ -68,18 +69,18 @@ def read_sumocfg(src: str, value: Any, path: str) -> SumoConfig:
                       begin=times.get("begin"), end=times.get("end"))
 
 
-def route_departs(path: str) -> tuple[float, ...]:
-    """[s] the depart time of each top-level demand element of a route file (a flow's begin),
-    sorted; elements without a numeric depart ("triggered", "now") are left out."""
+def route_departs(path: str, tags: tuple[str, ...] = DEMAND_TAGS) -> tuple[float, ...]:
+    """[s] the depart time of each top-level demand element of a route file whose tag is among
+    ``tags`` (a flow's begin), sorted; elements without a numeric depart ("triggered") are left out."""
     st = os.stat(path)
-    return _route_departs(path, st.st_mtime_ns, st.st_size)
+    return _route_departs(path, st.st_mtime_ns, st.st_size, tags)
 
 
-@functools.lru_cache(maxsize=8)
-def _route_departs(path: str, mtime_ns: int, size: int) -> tuple[float, ...]:
+@functools.lru_cache(maxsize=16)
+def _route_departs(path: str, mtime_ns: int, size: int, tags: tuple[str, ...]) -> tuple[float, ...]:
     out = []
     for el in xml_root(path):
-        if el.tag in DEMAND_TAGS:
+        if el.tag in tags:
             text = el.get("begin", "0") if el.tag.endswith("Flow") or el.tag == "flow" else el.get("depart")
             try:
                 out.append(float(sumolib.miscutils.parseTime(text)))
