@@ -6,13 +6,17 @@ resumable and runs on Dask too), then writes::
 
     DIR/comparison.csv                 one row per scenario x controller, aggregated over the seeds
     DIR/report.md                      the table
-    DIR/figures/<metric>_vs_demand.png one line per controller against demand [veh/h]
-                                       (bars per controller when there is one scenario)
+    DIR/figures/overview.png           every metric, one panel each: one line per controller against
+                                       demand [veh/h], or bars per controller and scenario at one level
+    DIR/figures/<metric>_vs_demand.png one line per controller against demand (two or more levels only)
+    DIR/figures/<metric>_vs_<axis>.png against a scenario axis (--latency, --loss) taking two or more values
 
 Aggregation over the seeds of a (scenario, controller): travel time mean and 95th percentile and
 time loss mean over all arrived vehicles of all seeds; throughput = arrived vehicles per hour of
 the demand window (``[scenario] duration``, summed over the seeds); SSM min TTC / min PET over all
-encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``);
+encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``),
+leaving out the TTC 0 of encounters SSM classified as a collision (``ssm_collision_encounters``,
+counted beside SUMO's own ``collisions``: at merges SSM flags encounters that never touched);
 collisions summed (``pedestrian_collisions``: those of a vehicle and a person); ``late_or_stuck``:
 departed vehicles that never arrived (a deadlock) or lost more than 60 s against free flow
 (tripinfo's timeLoss: a queue that does not drain), whatever the length of their routes, so the
@@ -49,13 +53,15 @@ from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_
 from intersection_cosim.results.engineer import level_of_service
 from intersection_cosim.results.layout import APPROACHES_FILE, COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
-from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand
+from intersection_cosim.results.units import write_units
+from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand, overview
 from intersection_cosim.results.sweep_folder import SweepSpec
 from intersection_cosim.scenario import scenario_from_dict
 
 TABLE_FILE = COMPARISON_FILE
 REPORT_FILE = "report.md"
 FIGURES_DIR = "figures"
+OVERVIEW_PNG = "overview.png"  # every FIGURE_METRICS metric, one panel each
 DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls"
 
 LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against free flow (or never arrived) is late or stuck
@@ -63,7 +69,7 @@ LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against fre
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived", "not_inserted",
            "control_delay", "los", "queue_p95_max", "fuel_g_per_trip", "co2_g_per_trip",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
-           "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
+           "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "ssm_collision_encounters", "collisions",
            "pedestrian_collisions", "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps",
            "deadline_misses",
            "deadline_miss_share",
@@ -159,15 +165,21 @@ def _engineer(summary: dict, run: Path) -> dict:
     return eng
 
 
-def _engineer_columns(runs: list[dict]) -> dict:
-    """Control delay [s] (mean over the seeds) and its HCM LOS, the largest 95th-percentile queue [m],
-    fuel and CO2 per arrived trip [g] (means over the seeds); NaN where no run has them."""
+def _engineer_columns(folders: list[Path]) -> dict:
+    """Of the finished runs in ``folders``: vehicles never inserted (summed), control delay [s]
+    (mean over the seeds) and its HCM LOS, the largest 95th-percentile queue [m], fuel and CO2 per
+    arrived trip [g] (means over the seeds); NaN where no run has them."""
+    summaries = [json.loads((run / RUN_MARKER).read_text()) for run in folders]
+    runs = [_engineer(summary, run) for summary, run in zip(summaries, folders)]
+    not_inserted = sum(int(s.get("counts", {}).get("not_inserted") or 0) for s in summaries)
+
     def mean(key: str) -> float:
         return _mean(np.array([r.get(key) if r.get(key) is not None else np.nan for r in runs], float))
 
     delay = mean("control_delay")
     table = next((r["los_table"] for r in runs if r.get("los_table")), "")
-    return {"control_delay": delay, "los": level_of_service(delay, table) if table else "",
+    return {"not_inserted": not_inserted if folders else math.nan,
+            "control_delay": delay, "los": level_of_service(delay, table) if table else "",
             "queue_p95_max": mean("queue_p95_max"), "fuel_g_per_trip": mean("fuel_g_per_trip"),
             "co2_g_per_trip": mean("co2_g_per_trip")}
 
@@ -182,8 +194,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         mine = [j for j in jobs if j.controller == controller and j.axes == point and j.finished]
         veh, steps, ssm = [], [], []
         window = 0.0
-        vehicles = arrived = collisions = walkers_hit = late = ended = not_inserted = 0
-        engineer = []
+        vehicles = arrived = collisions = walkers_hit = late = ended = 0
         for job in mine:
             run = Path(job.run_dir)
             summary = json.loads((run / RUN_MARKER).read_text())
@@ -192,8 +203,6 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             window += float(duration)
             vehicles += int(counts.get("vehicles") or 0)
             arrived += int(counts.get("arrived") or 0)
-            not_inserted += int(counts.get("not_inserted") or 0)
-            engineer.append(_engineer(summary, run))
             collisions += int(counts.get("collisions") or 0)
             walkers_hit += int(counts.get("pedestrian_collisions") or 0)  # of the collisions: with a person
             ended += summary.get("ended_early") is not None
@@ -206,7 +215,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         v = pd.concat(veh) if veh else pd.DataFrame(columns=["arrival", "travel_time", "time_loss"])
         v = v[v["arrival"].notna()] if len(v) else v
         st = pd.concat(steps) if steps else pd.DataFrame(columns=["compute_ms", "deadline_missed", "junctions"])
-        ss = pd.concat(ssm) if ssm else pd.DataFrame(columns=["min_ttc", "pet"])
+        ss = pd.concat(ssm) if ssm else pd.DataFrame(columns=["min_ttc", "pet", "ssm_collision"])
         tt = v["travel_time"].to_numpy(float)
         ttc = ss["min_ttc"].to_numpy(float)
         pet = ss["pet"].to_numpy(float)
@@ -217,12 +226,13 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         rows.append({
             "scenario": spec.scenario_name, "demand_veh_h": demand, "controller": controller, **dict(point),
             "seeds": len(spec.seeds), "runs_ok": len(mine), "vehicles": vehicles, "arrived": arrived,
-            "not_inserted": not_inserted if mine else math.nan, **_engineer_columns(engineer),
+            **_engineer_columns([Path(j.run_dir) for j in mine]),
             "travel_time_mean": _mean(tt), "travel_time_p95": _quantile(tt, 0.95),
             "time_loss_mean": _mean(v["time_loss"].to_numpy(float)),
             "throughput_veh_h": arrived / window * 3600.0 if window > 0 else math.nan,
             "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss) if ssm else math.nan,
             "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
+            "ssm_collision_encounters": int(ss["ssm_collision"].astype(bool).sum()) if ssm else math.nan,
             "collisions": collisions if mine else math.nan,
             "pedestrian_collisions": walkers_hit if mine else math.nan,
             "late_or_stuck": late if mine else math.nan,
@@ -261,7 +271,7 @@ def write_report(out: Path, table: pd.DataFrame, figures: list[Path]) -> Path:
             "loss over the arrived vehicles of all seeds; throughput = arrived vehicles per hour of the demand "
             f"window; SSM share = encounters with TTC < {ttc_thr:g} s or PET < {pet_thr:g} s; compute time per "
             "control step.", "", markdown_table(table), ""]
-    text += _negative_time_loss_note(table)
+    text += _negative_time_loss_note(table) + _ssm_collision_note(table)
     text += ["## Figures", ""]
     text += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figures]
     path = out / REPORT_FILE
@@ -282,6 +292,46 @@ def _negative_time_loss_note(table: pd.DataFrame) -> list[str]:
             "true` makes the game controllers keep them (fcfs does not).", ""]
 
 
+def _ssm_collision_note(table: pd.DataFrame) -> list[str]:
+    """A note under the table when SSM classified encounters as collisions: their TTC 0 is left out
+    of the SSM min TTC, and SUMO's collision check (``collisions``) is the count of collisions."""
+    flagged = table[pd.to_numeric(table["ssm_collision_encounters"], errors="coerce") > 0]
+    if flagged.empty:
+        return []
+    who = ", ".join(f"{r.controller} ({r.scenario}): {r.ssm_collision_encounters:.0f} vs {r.collisions:.0f}"
+                    for r in flagged.itertuples())
+    return ["SSM classified encounters as collisions (type 111, TTC 0) in some runs; SSM min TTC leaves them "
+            "out, and `collisions` is SUMO's own collision check (SSM-flagged encounters vs collisions: "
+            f"{who}). SSM's gap estimate flags such encounters at merges, e.g. a vehicle waiting at its stop line "
+            "while another passes the merge point ahead of it.", ""]
+
+
+def _overview_title(table: pd.DataFrame, axes: list[str]) -> str:
+    demands = sorted(table["demand_veh_h"].unique())
+    where = (f"at {demands[0]:.0f} veh/h" if len(demands) == 1 else
+             f"against demand ({demands[0]:.0f}-{demands[-1]:.0f} veh/h)")
+    mean = f"; each the mean over {', '.join(axes)}" if axes else ""
+    return f"Controller comparison {where}, over the seeds{mean}"
+
+
+def draw_figures(out: Path, table: pd.DataFrame, axes: list[str]) -> list[Path]:
+    """The comparison's figures in ``out/figures/``: the overview, and a figure per metric only against
+    what varies (demand with two or more levels, a scenario axis with two or more values)."""
+    for stale in (out / FIGURES_DIR).glob("*.png"):  # an earlier call's figures (which ones are drawn may change)
+        stale.unlink()
+    keys = ["scenario", "demand_veh_h", "controller"]
+    per_scenario = table.groupby(keys, sort=False)[list(FIGURE_METRICS)].mean().reset_index() if axes else table
+    figures = [overview(per_scenario, FIGURE_METRICS, out / FIGURES_DIR / OVERVIEW_PNG, _overview_title(table, axes))]
+    if table["demand_veh_h"].nunique() > 1:  # a line against demand has something to show
+        figures += [metric_vs_demand(table, metric, label, out / FIGURES_DIR / f"{metric}_vs_demand.png")
+                    for metric, label in FIGURE_METRICS.items()]
+    # one figure per metric against each axis that takes two or more values
+    figures += [metric_vs_axis(table, metric, label, name, f"{name} [{AXES[name].unit}]",
+                               out / FIGURES_DIR / f"{metric}_vs_{name}.png", tuple(a for a in axes if a != name))
+                for name in axes if table[name].nunique() > 1 for metric, label in AXIS_FIGURE_METRICS.items()]
+    return figures
+
+
 def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
     """comparison.csv, report.md and the figures from the sweep folders under ``out``."""
     rows = []
@@ -292,13 +342,8 @@ def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
     table = pd.DataFrame(rows, columns=columns).sort_values(["demand_veh_h", "scenario"], kind="stable")
     table = table.reset_index(drop=True)
     table.to_csv(out / TABLE_FILE, index=False, float_format="%.6g")
-    if axes:  # one figure per axis and metric: the metric against the axis value
-        figures = [metric_vs_axis(table, metric, label, name, f"{name} [{AXES[name].unit}]",
-                                  out / FIGURES_DIR / f"{metric}_vs_{name}.png", tuple(a for a in axes if a != name))
-                   for name in axes for metric, label in AXIS_FIGURE_METRICS.items()]
-    else:
-        figures = [metric_vs_demand(table, metric, label, out / FIGURES_DIR / f"{metric}_vs_demand.png")
-                   for metric, label in FIGURE_METRICS.items()]
+    write_units(out, {TABLE_FILE: table.columns})
+    figures = draw_figures(out, table, axes)
     write_report(out, table, figures)
     return table
 
