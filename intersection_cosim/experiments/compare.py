@@ -1,4 +1,4 @@
-"""Controller comparison (issue 7): every controller x seed on one or more demand scenarios.
+"""Controller comparison: every controller x seed on one or more demand scenarios.
 
 ``intersection-cosim compare SCENARIO... --controllers K1,K2 --seeds 1-5 --out DIR`` runs one sweep
 per scenario (no kappa grid) into ``DIR/<scenario name>/`` through :func:`run_sweep` (so it is

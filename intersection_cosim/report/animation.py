@@ -45,7 +45,7 @@ class AnimationSettings:
 
     fps: float = 10.0  # [1/s] frames per second of playback: 10 with frame_dt 0.1 s plays in real time
     frame_dt: float = 0.1  # [s] simulation time between frames (at least one trajectory sample)
-    max_frames: int = 600  # frames at most; a longer run is subsampled evenly
+    max_frames: int = 600  # [-] frames at most; a longer run is subsampled evenly
     size: tuple[int, int] = (800, 720)  # [px] frame width, height (even, for MP4)
     margin: float = 6.0  # [m] around the vehicles' extent in the view
     max_half_view: float = 40.0  # [m] the view reaches at most this far from the centre (paper cases start 18-30 m out)
