@@ -122,11 +122,13 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--realtime", action="store_true", help="pace the simulation to the wall clock")
     run.add_argument("--gui", action="store_true",
                      help="show the run live in sumo-gui (through TraCI); the outputs are the same")
+    run.add_argument("--quiet", action="store_true", help="do not print SUMO's first warnings (they stay in sumo.log)")
     run.add_argument("--gui-delay", type=_non_negative_float, default=50.0, metavar="MS",
                      help="[ms] sumo-gui's pause per SUMO step with --gui (default 50: about real time)")
 
     _add_sweep(sub)
     _add_compare(sub)
+    _add_benchmark(sub)
     report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder (compare writes its own)")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
     _add_animate(sub)
@@ -164,6 +166,29 @@ def _add_compare(sub) -> None:
                          "finished runs")
     _add_axis_options(compare)
     _add_executor_options(compare)
+
+
+def _add_benchmark(sub) -> None:
+    bench = sub.add_parser("benchmark", help="RESCO's real-demand scenarios under the chosen controllers")
+    bench.add_argument("suite", choices=["resco"], help="the benchmark suite (resco: TAPAS Cologne, InTAS Ingolstadt)")
+    bench.add_argument("--scenarios", default="cologne1,cologne3,cologne8,ingolstadt1,ingolstadt7,ingolstadt21,"
+                       "arterial4x4,grid4x4", help="comma-separated (default: all eight)")
+    bench.add_argument("--controllers", default="nash,stackelberg,fcfs,sumo-tls,sumo-actuated,max-pressure,sumo-priority",
+                       help="controller kinds, comma-separated (default: %(default)s)")
+    bench.add_argument("--seeds", default="1", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: 1)")
+    bench.add_argument("--window", choices=["full", "600"], default="full",
+                       help="full: the sumocfg's begin to end (one hour); 600: its first 600 s (default: full)")
+    bench.add_argument("--nets", help="folder of <name>/<name>.sumocfg (default: the installed sumo-rl's nets/RESCO)")
+    bench.add_argument("--out", required=True, help="benchmark folder; rerunning the same command skips finished runs")
+    _add_executor_options(bench)
+
+
+def _cmd_benchmark(args) -> int:
+    from intersection_cosim.experiments.benchmark import run_benchmark
+
+    return _interruptible(lambda: run_benchmark(args.scenarios, args.controllers, args.seeds, args.window, args.out,
+                                                args.nets, workers=args.workers, dask_scheduler=args.dask_scheduler,
+                                                progress=not args.no_progress))
 
 
 def _add_axis_options(parser) -> None:
@@ -244,10 +269,17 @@ def _cmd_run(args) -> int:
     summary = run_scenario(scn, out, force=args.force, gui=gui)
     c = summary["counts"]
     k = summary["collisions"]
-    print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived, {c['collisions']} collisions "
+    print(f"{out}: {c['arrived']}/{c['vehicles']} vehicles arrived ({c['departed']} inserted, "
+          f"{c['not_inserted']} never inserted, {c['never_arrived']} inserted but not arrived), "
+          f"{c['collisions']} collisions "
           f"({k['sumo_pairs_commanded']} pairs with a controlled vehicle, {k['sumo_pairs_uncommanded']} without; "
           f"our overlap check: {k['overlap_pairs_commanded']} / {k['overlap_pairs'] - k['overlap_pairs_commanded']}), "
           f"mean travel time {summary['metrics']['mean_travel_time'] or float('nan'):.2f} s")
+    warned = summary.get("sumo_warnings") or {}
+    if warned.get("warnings") and not args.quiet:
+        kinds = len(warned["by_kind"])
+        print(f"{out}: SUMO warned {warned['warnings']} times ({kinds} kinds, every one in {out / 'sumo.log'}); first:")
+        print("\n".join(f"  {line}" for line in warned["first"]))
     if (end := summary.get("ended_early")) is not None:
         why = (f"all {end['vehicles']} vehicles in the network stood still from t={end['since']:.1f} s (a deadlock)"
                if end["reason"] == "deadlock" else f"the run held {end['peak_gb']:.1f} GB (scenario.memory_limit)")
@@ -299,7 +331,7 @@ def _cmd_animate(args) -> int:
     return 0
 
 
-COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare,
+COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare, "benchmark": _cmd_benchmark,
             "report": _cmd_report, "animate": _cmd_animate, "junctions": _cmd_junctions}
 
 

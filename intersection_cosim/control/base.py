@@ -160,6 +160,8 @@ class Decisions:
     owner: dict[str, str] = field(default_factory=dict)  # per vehicle of ``accel`` and ``release``, the managed
     #   junction whose controller decided it (control/per_junction.py): the simulator adapter takes a
     #   command only while the vehicle is on that junction's paths (empty: the run's one junction)
+    signals: dict[str, str] = field(default_factory=dict)  # [-] traffic light id -> SUMO state string to show
+    #   from now on (signal controllers; empty: every light keeps what it shows)
     games: int = 0  # games played this step
     iterations: int = 0  # equilibrium iterations (summed over games)
     pairs: list[tuple[str, str]] = field(default_factory=list)  # pairs that played a game

@@ -58,6 +58,7 @@ def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> De
     for j, d in parts.items():
         merged.accel.update(d.accel)
         merged.exit_lane.update(d.exit_lane)
+        merged.signals.update(d.signals)
         merged.release.extend(vid for vid in d.release if owner.get(vid, j) == j)
         merged.owner.update({vid: j for vid in d.accel})
         merged.owner.update({vid: j for vid in d.release if owner.get(vid, j) == j})
@@ -104,6 +105,8 @@ class PerJunction:
         self.junction_type = self._first.junction_type
         self.controls_vehicles = self._first.controls_vehicles
         self.yields_to_pedestrians = self._first.yields_to_pedestrians
+        # (net file, junctions) -> an <additional> SUMO loads for the run (a signal programme), if the kind has one
+        self.signal_additional = getattr(self._first, "signal_additional", None)
         self.parts: dict[str, Controller] = {}  # junction id -> its controller, after setup
         self._movements = None
 

@@ -15,8 +15,11 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from intersection_cosim.control.base import Controller
+from intersection_cosim.control.baselines.actuated import ActuatedController
 from intersection_cosim.control.baselines.fcfs import FcfsController
+from intersection_cosim.control.baselines.max_pressure import MaxPressureController
 from intersection_cosim.control.baselines.reservations import FcfsSettings
+from intersection_cosim.control.baselines.signal_settings import SignalSettings
 from intersection_cosim.control.game.controller import GameController
 from intersection_cosim.control.per_junction import PerJunction
 from intersection_cosim.control.game.settings import GameControllerSettings
@@ -102,6 +105,12 @@ def _register_builtin() -> None:
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
         register(name, Entry(lambda settings, jtype, name=name: GameController(name, settings),
                              GameControllerSettings, f"the paper's differential game, {what} equilibrium"))
+    register("sumo-actuated", Entry(lambda settings, jtype: ActuatedController(settings=settings), SignalSettings,
+                                    "baseline: SUMO's actuated signal programme from the net's own phases "
+                                    "(gap-based extension)", table="signals"))
+    register("max-pressure", Entry(lambda settings, jtype: MaxPressureController(settings), SignalSettings,
+                                   "baseline: max-pressure phase choice on the net's traffic lights "
+                                   "(defaults: every 5 s, min green 5 s, yellow 3 s)", table="signals"))
     register("fcfs", Entry(lambda settings, jtype: FcfsController(settings), FcfsSettings,
                            "first-come-first-served reservation of the conflict points (Dresner and Stone)",
                            table="solver"))

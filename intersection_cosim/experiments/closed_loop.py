@@ -7,6 +7,7 @@ the outputs are the same.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 from pathlib import Path
@@ -53,6 +54,8 @@ class Simulated(NamedTuple):
     bodies: dict | None = None  # vehicle id -> (length, width) [m] of its SUMO vType (None: not read)
     collision_log: tuple = ()  # sim.collisions.CollisionRecord, SUMO's collisions step by step
     onboard_caps: int = 0  # [-] SUMO steps x vehicles in which the onboard guard lowered a command
+    loaded: int = 0  # [-] vehicles SUMO loaded from the route files during the run (inserted or not)
+    emission_classes: dict | None = None  # vType -> SUMO emission class of its vehicles
 
 
 def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simulated:
@@ -60,6 +63,7 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
     with ``gui``); SUMO writes its own outputs there too."""
     # The simulator layer (libsumo) is loaded only by the process that runs a simulation, not by
     # a sweep's supervising process, which imports this module through experiments.executors.
+    from intersection_cosim.sim.console import stderr_silenced
     from intersection_cosim.sim.gui import GuiView
     from intersection_cosim.sim.network_scheduler import NetworkScheduler
     from intersection_cosim.sim.sumo import LANE_CHANGE_MODE_STRATEGIC, LIBSUMO, SumoSimulation, VehicleInfo
@@ -67,7 +71,6 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
     s, controller = scn.scenario, inputs.controller
     specs = vehicle_specs(scn, inputs.flow_vehicles, controller.controls_vehicles)
     infos = {vid: VehicleInfo(**spec) for vid, spec in specs.items()}
-    period_steps = control_period_steps(scn)
     m = scn.model
     bodies = tuple(sorted({(vt.length or m.vehicle_length, vt.width or m.vehicle_width) for vt in scn.vtypes}))  # [m]
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
@@ -87,18 +90,27 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
     sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,
                          exit_distance=s.exit_distance, backend=view.backend() if view is not None else LIBSUMO,
                          onboard=scn.controller.onboard if controller.controls_vehicles else None, **generic)
+    # libsumo prints its warnings on the console besides sumo.log: they stay in the file
+    with stderr_silenced() if view is None else contextlib.nullcontext():
+        return _simulate(scn, folder, inputs, sim, scheduler, observers, view)
+
+
+def _simulate(scn: Scenario, folder: Path, inputs: RunInputs, sim, scheduler, observers: list, view) -> Simulated:
+    """:func:`simulate`'s loop on the made ``sim`` (sim.sumo.SumoSimulation), closed at the end."""
+    s = scn.scenario
     try:
         # SUMO resolves the config's paths against its folder; the run's own outputs are given on
         # the command line (the config's go to replay/)
-        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder, scn.scenario.ssm))
-        if _signals_off(scn, controller):
+        sim.start(str(folder / SUMOCFG_FILE), run_output_options(folder, s.ssm, s.duration + s.drain))
+        if _signals_off(scn, inputs.controller):
             sim.switch_signals_off()
         if view is not None:
             view.attach(sim.api)
         channel = (Channel(scn.v2x, inputs.movements, scn.controller.period, s.seed)
                    if scn.v2x.enabled else None)
         try:
-            records = _closed_loop(sim, scheduler, observers, period_steps, s.duration + s.drain, channel,
+            end = (s.begin or 0.0) + s.duration + s.drain  # [s] SUMO's clock
+            records = _closed_loop(sim, scheduler, observers, control_period_steps(scn), end, channel,
                                    (StandstillWatch(s.deadlock_time), MemoryGuard(s.memory_limit)))
         except RouteRefusal as exc:
             raise _route_error(scn, exc) from None
@@ -111,7 +123,8 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
             view.close()
     return Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None,
                      {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None,
-                     tuple(sim.collision_log), sim.guard.caps if sim.guard is not None else 0)
+                     tuple(sim.collision_log), sim.guard.caps if sim.guard is not None else 0, sim.loaded,
+                     dict(sim.emission_classes))
 
 
 def _route_error(scn: Scenario, exc: RouteRefusal) -> Exception:

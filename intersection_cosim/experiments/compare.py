@@ -21,6 +21,10 @@ collisions summed (``pedestrian_collisions``: those of a vehicle and a person); 
 departed vehicles that never arrived (a deadlock) or lost more than 60 s against free flow
 (tripinfo's timeLoss: a queue that does not drain), whatever the length of their routes, so the
 same bound holds on a small junction and on a long OSM approach;
+``control_delay``: the runs' control delay (SUMO's time loss of the trips through the junctions,
+results/engineer.py) averaged over the seeds, ``los`` its HCM level of service, ``queue_p95_max``
+the largest 95th-percentile queue of an approach [m], fuel and CO2 per arrived trip [g] of SUMO's
+emissions device; ``not_inserted``: vehicles due that SUMO never inserted (summed);
 ``ended_early``: runs that ended before their end because every vehicle stood still (a deadlock,
 experiments.deadlock) or past scenario.memory_limit (experiments.memory_guard); compute time per
 control step (summed over the junctions' controllers of a net with several) median and 95th
@@ -43,9 +47,11 @@ import pandas as pd
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.axes import AXES
 from intersection_cosim.experiments.files import SSM_THRESHOLDS
+from intersection_cosim.experiments.route_window import file_counts
 from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_spec, parse_controllers, run_sweep,
                                                   sweep_jobs)
-from intersection_cosim.results.layout import COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
+from intersection_cosim.results.engineer import level_of_service
+from intersection_cosim.results.layout import APPROACHES_FILE, COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
 from intersection_cosim.results.units import write_units
 from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand, overview
@@ -60,7 +66,8 @@ DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo
 
 LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against free flow (or never arrived) is late or stuck
 
-COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
+COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived", "not_inserted",
+           "control_delay", "los", "queue_p95_max", "fuel_g_per_trip", "co2_g_per_trip",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
            "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "ssm_collision_encounters", "collisions",
            "pedestrian_collisions", "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps",
@@ -128,6 +135,9 @@ def demand_veh_h(spec: SweepSpec) -> float:
     duration = dict(spec.overrides).get("duration", scn.scenario.duration)
     vehicles = sum(f.rate / 3600.0 * max(0.0, min(f.end, duration) - max(f.begin, 0.0)) for f in scn.flows)
     vehicles += len(scn.vehicles)
+    if scn.network.routes is not None:  # a route file's vehicles due in the window
+        vehicles += file_counts(dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, duration=duration)))[
+            "in_window"]
     return vehicles / duration * 3600.0
 
 
@@ -144,6 +154,34 @@ def _mean(values: np.ndarray) -> float:
 def _min(values: np.ndarray) -> float:
     values = values[np.isfinite(values)]
     return float(values.min()) if len(values) else math.nan
+
+
+def _engineer(summary: dict, run: Path) -> dict:
+    """A run's engineer metrics (results/engineer.py): its summary's, with the largest
+    95th-percentile queue [m] of its approaches."""
+    eng = dict(summary.get("engineer") or {})
+    table = run / APPROACHES_FILE
+    eng["queue_p95_max"] = float(pd.read_csv(table)["queue_p95"].max()) if table.is_file() and table.stat().st_size else math.nan
+    return eng
+
+
+def _engineer_columns(folders: list[Path]) -> dict:
+    """Of the finished runs in ``folders``: vehicles never inserted (summed), control delay [s]
+    (mean over the seeds) and its HCM LOS, the largest 95th-percentile queue [m], fuel and CO2 per
+    arrived trip [g] (means over the seeds); NaN where no run has them."""
+    summaries = [json.loads((run / RUN_MARKER).read_text()) for run in folders]
+    runs = [_engineer(summary, run) for summary, run in zip(summaries, folders)]
+    not_inserted = sum(int(s.get("counts", {}).get("not_inserted") or 0) for s in summaries)
+
+    def mean(key: str) -> float:
+        return _mean(np.array([r.get(key) if r.get(key) is not None else np.nan for r in runs], float))
+
+    delay = mean("control_delay")
+    table = next((r["los_table"] for r in runs if r.get("los_table")), "")
+    return {"not_inserted": not_inserted if folders else math.nan,
+            "control_delay": delay, "los": level_of_service(delay, table) if table else "",
+            "queue_p95_max": mean("queue_p95_max"), "fuel_g_per_trip": mean("fuel_g_per_trip"),
+            "co2_g_per_trip": mean("co2_g_per_trip")}
 
 
 def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
@@ -188,6 +226,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         rows.append({
             "scenario": spec.scenario_name, "demand_veh_h": demand, "controller": controller, **dict(point),
             "seeds": len(spec.seeds), "runs_ok": len(mine), "vehicles": vehicles, "arrived": arrived,
+            **_engineer_columns([Path(j.run_dir) for j in mine]),
             "travel_time_mean": _mean(tt), "travel_time_p95": _quantile(tt, 0.95),
             "time_loss_mean": _mean(v["time_loss"].to_numpy(float)),
             "throughput_veh_h": arrived / window * 3600.0 if window > 0 else math.nan,

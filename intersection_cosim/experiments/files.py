@@ -11,6 +11,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from intersection_cosim.colors import HUMAN
+from intersection_cosim.results.layout import QUEUES_FILE
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.network.spec import LANE_INDEX, exit_arm
@@ -26,6 +27,8 @@ REPLAY_DIR = "replay"  # the exported config's SUMO outputs go here (relative to
 # SUMO option -> file name of each SUMO output of a run (in the run folder; in REPLAY_DIR on replay)
 SUMO_OUTPUT_FILES = {"tripinfo-output": "tripinfo.xml", "collision-output": "collisions.xml",
                      "device.ssm.file": "ssm.xml"}
+SIGNALS_FILE = "signals.add.xml"  # a signal baseline's traffic-light programmes, in the run folder
+SUMO_LOG_FILE = "sumo.log"  # SUMO's warnings and errors of a run (its --error-log), in the run folder
 REPLAY_README = """This folder receives SUMO's outputs when scenario.sumocfg (one level up) is opened with sumo or
 sumo-gui. That replay runs SUMO's own driver model on the run's net and routes, NOT the game
 controller, so its outputs differ from the run's own tripinfo.xml, ssm.xml and collisions.xml, which
@@ -75,8 +78,11 @@ def write_routes(path: Path, scn: Scenario, paths: dict[str, MovementPath], flow
                 for fv in flow_vehicles]
     types = {v.id: sumo_type(scn.vtype(v.vtype), v.driver) for v in scn.vehicles}
     types |= {fv["id"]: sumo_type(scn.vtype(fv.get("vtype")), fv.get("driver", "av")) for fv in flow_vehicles}
+    begin = scn.scenario.begin or 0.0  # [s] the scenario's own departs count from it
     for entry in entries:
         entry[2]["type"] = types[entry[1]]
+        if begin:
+            entry[2]["depart"] = f"{float(entry[2]['depart']) + begin:.2f}"
     entries.sort(key=lambda e: (e[0], e[1]))
     for _, _, attrs, edges in entries:
         el = ET.SubElement(root, "vehicle", attrs)
@@ -166,32 +172,42 @@ def _flow_entry(fv: dict) -> RouteEntry:
     return fv["depart"], fv["id"], attrs, " ".join(fv["route"])
 
 
-def route_files(scn: Scenario) -> list[str]:
+def route_files(scn: Scenario, user_routes: str | None = None) -> list[str]:
     """The route files SUMO loads for a run of ``scn``: the run's own (ROUTE_FILE, relative to the
-    run folder), then the user's ``[network] routes`` file (absolute), if any. When a [[vehicle]]
-    or [[flow]] names a vType of the user's file, that file comes first: SUMO must read the vType
-    before the first vehicle of it."""
+    run folder), then the user's ``[network] routes`` file (absolute; ``user_routes`` instead if
+    given: its windowed copy), if any. When a [[vehicle]] or [[flow]] names a vType of the user's
+    file, that file comes first: SUMO must read the vType before the first vehicle of it."""
     if scn.network.routes is None:
         return [ROUTE_FILE]
+    theirs_file = user_routes or scn.network.routes
     theirs = {vt.id for vt in scn.vtypes if vt.from_routes}
     if any(spec.vtype in theirs for spec in (*scn.vehicles, *scn.flows)):
-        return [scn.network.routes, ROUTE_FILE]
-    return [ROUTE_FILE, scn.network.routes]
+        return [theirs_file, ROUTE_FILE]
+    return [ROUTE_FILE, theirs_file]
 
 
-def run_output_options(folder: Path, ssm: bool = True) -> list[str]:
+def run_output_options(folder: Path, ssm: bool = True, window: float | None = None) -> list[str]:
     """SUMO command-line options that write the run's own outputs into ``folder`` (absolute paths);
-    without ``ssm`` (``[scenario] ssm = false``: no SSM device) no SSM file.
+    without ``ssm`` (``[scenario] ssm = false``: no SSM device) no SSM file; SUMO's warnings and
+    errors go to SUMO_LOG_FILE there; with ``window`` [s] (the run's length) SUMO's queue output
+    aggregated over it (95th percentile and maximum per edge) and every vehicle's emissions device.
 
     Options on the command line override the config's, so the run's outputs land where they always
     did while the exported config keeps pointing at ``replay/``.
     """
     folder = Path(folder).resolve()
-    return [arg for option, name in SUMO_OUTPUT_FILES.items() if ssm or option != "device.ssm.file"
-            for arg in (f"--{option}", str(folder / name))]
+    outputs = [arg for option, name in SUMO_OUTPUT_FILES.items() if ssm or option != "device.ssm.file"
+               for arg in (f"--{option}", str(folder / name))]
+    log = ["--no-warnings", "false", "--error-log", str(folder / SUMO_LOG_FILE)]
+    if window is None:
+        return [*outputs, *log]
+    measures = ["--queue-output", str(folder / QUEUES_FILE), "--queue-output.aggregation", f"{window:g}",
+                "--queue-output.percentile", "95", "--device.emissions.probability", "1"]
+    return [*outputs, *log, *measures]
 
 
-def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
+def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | None = None,
+                  additional: tuple[str, ...] = ()) -> None:
     """A config with every option of the run, its SUMO outputs going to ``replay/`` beside it.
 
     What it replays: ``sumo-gui -c scenario.sumocfg`` runs the same net, routes, step length, seed and
@@ -199,16 +215,20 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario) -> None:
     game controller (or any other controller of this package), so the vehicles' motion differs
     from the run's trajectories. Its tripinfo, SSM and collision outputs go to ``replay/`` (made
     here, with a README), never over the run's own files. To watch the controller itself, use
-    ``intersection-cosim run SCENARIO --gui``.
+    ``intersection-cosim run SCENARIO --gui``. ``user_routes`` replaces the user's route file
+    (its windowed copy); ``additional`` are the run's own additional files, after the user's.
     """
     replay = Path(path).parent / REPLAY_DIR
     replay.mkdir(exist_ok=True)
     (replay / "README.txt").write_text(REPLAY_README)
     s = scn.scenario
+    adds = (*scn.network.additional, *additional)  # the user's, then the run's own (loaded last: in force)
     root = ET.Element("configuration")
     sections = {
-        "input": {"net-file": net_file, "route-files": ",".join(route_files(scn))},
-        "time": {"begin": "0", "end": f"{s.duration + s.drain:g}", "step-length": f"{s.step_length:g}"},
+        "input": {"net-file": net_file, "route-files": ",".join(route_files(scn, user_routes)),
+                  **({"additional-files": ",".join(adds)} if adds else {})},
+        "time": {"begin": f"{s.begin or 0.0:g}", "end": f"{(s.begin or 0.0) + s.duration + s.drain:g}",
+                 "step-length": f"{s.step_length:g}"},
         "processing": {"collision.check-junctions": "true", "collision.action": "warn",
                        "collision.mingap-factor": "0", "time-to-teleport": "-1",
                        "default.speeddev": "0"},

@@ -16,10 +16,12 @@ import shutil
 from pathlib import Path
 
 from intersection_cosim.experiments.closed_loop import simulate
+from intersection_cosim.experiments.files import SUMO_LOG_FILE
 from intersection_cosim.experiments.output_folder import finish_output, prepare_output
 from intersection_cosim.experiments.run_inputs import write_inputs
-from intersection_cosim.experiments.run_tables import result_tables, run_summary, write_tables
+from intersection_cosim.experiments.run_tables import result_tables, run_summary, vehicle_counts, write_tables
 from intersection_cosim.results.layout import RUN_MARKER
+from intersection_cosim.results.sumo_log import read_sumo_log
 from intersection_cosim.scenario.model import Scenario
 
 
@@ -57,9 +59,13 @@ def _run_into(scn: Scenario, folder: Path, gui=None, compress: bool = False) -> 
     tables = result_tables(scn, folder, inputs, simulated)
     diagnostics = inputs.controller.diagnostics()
     write_tables(folder, tables, simulated.records, diagnostics, compress)
-    summary = run_summary(scn, simulated.infos, tables, diagnostics, gui, simulated.onboard_caps)
+    own = len(scn.vehicles) + len(inputs.flow_vehicles)
+    summary = run_summary(scn, simulated.infos, tables, diagnostics, gui, simulated.onboard_caps,
+                          vehicle_counts(scn, own, simulated.loaded, tables.tripinfo))
     ended = simulated.records.ended
     summary["ended_early"] = ended[0]._asdict() if ended else None
+    summary["sumo_warnings"] = read_sumo_log(folder / SUMO_LOG_FILE)
+    summary["engineer"]["emission_classes"] = simulated.emission_classes
     if simulated.v2x_counts is not None:
         summary["v2x"] = dict(simulated.v2x_counts)
     with open(folder / RUN_MARKER, "w") as fh:

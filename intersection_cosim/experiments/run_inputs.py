@@ -4,6 +4,7 @@ them; and what the simulation is given of each vehicle."""
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Mapping, NamedTuple
 
@@ -12,7 +13,8 @@ import numpy as np
 from intersection_cosim.control import registry
 from intersection_cosim.control.base import Controller
 from intersection_cosim.errors import InputError
-from intersection_cosim.experiments.files import ROUTE_FILE, SUMOCFG_FILE, write_routes, write_sumocfg
+from intersection_cosim.experiments.files import ROUTE_FILE, SIGNALS_FILE, SUMOCFG_FILE, write_routes, write_sumocfg
+from intersection_cosim.experiments.route_window import write_window
 from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.cache import cached_net
 from intersection_cosim.network.junction_net import junction_table, load_movements
@@ -51,8 +53,27 @@ def write_inputs(scn: Scenario, folder: Path) -> RunInputs:
     flow_vehicles = draw_drivers(scn, generate_flow_vehicles(scn, rng))
     _check_attacked(scn, flow_vehicles)
     write_routes(folder / ROUTE_FILE, scn, movements.paths, flow_vehicles)
-    write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn)
+    write_sumocfg(folder / SUMOCFG_FILE, NET_FILE, scn, write_window(scn, folder),
+                  _signal_additional(scn, controller, net, folder))
     return RunInputs(controller, net, movements, flow_vehicles)
+
+
+def _signal_additional(scn: Scenario, controller: Controller, net: Path, folder: Path) -> tuple[str, ...]:
+    """The signal programme file a signal controller has SUMO load (SIGNALS_FILE in ``folder``), as
+    the names of the additional files to add; () for other controllers."""
+    make = getattr(controller, "signal_additional", None)
+    if make is None:
+        return ()
+    root = make(str(net), tuple(scn.network.junctions) if not scn.network.generated else tuple(_net_junctions(net)))
+    ET.indent(root)
+    ET.ElementTree(root).write(folder / SIGNALS_FILE, encoding="UTF-8", xml_declaration=True)
+    return (SIGNALS_FILE,)
+
+
+def _net_junctions(net: Path) -> list[str]:
+    """The ids of the traffic-light junctions of the generated net."""
+    table = junction_table(net, all_junctions=True)
+    return [str(j) for j in table.loc[table["type"].str.startswith("traffic_light"), "id"]]
 
 
 def _check_attacked(scn: Scenario, flow_vehicles: list[dict]) -> None:

@@ -14,18 +14,22 @@ import pandas as pd
 from intersection_cosim import __version__
 from intersection_cosim.control.base import Diagnostics
 from intersection_cosim.experiments.closed_loop import Records, Simulated
+from intersection_cosim.experiments.route_window import file_counts
 from intersection_cosim.experiments.run_inputs import RunInputs
 from intersection_cosim.network.cache import sumo_version
+from intersection_cosim.network.by_junction import path_junction
 from intersection_cosim.network.conflicts import movement_conflicts
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.results.collision_counts import collision_counts
-from intersection_cosim.results.layout import (COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
+from intersection_cosim.results.layout import (APPROACHES_FILE, QUEUES_FILE, COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE, SSM_FILE, STEP_COLUMNS, STEPS_FILE,
                                                TRAJECTORIES_FILE, TRAJECTORIES_GZ, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
                                                OVERLAPS_FILE, WALKER_COLUMNS, WALKERS_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.overlaps import OVERLAP_COLUMNS
-from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
+from intersection_cosim.results.engineer import approach_table, delay_summary, run_energy
+from intersection_cosim.results.sumo_outputs import (PEDESTRIAN_COLLISIONS, read_collisions, read_queues, read_ssm,
+                                                     read_tripinfo)
 from intersection_cosim.results.units import csv_columns, write_units
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
@@ -42,6 +46,7 @@ class RunTables(NamedTuple):
     pairs: pd.DataFrame
     collision_log: pd.DataFrame  # COLLISION_LOG_COLUMNS: SUMO's records, with who was under a controller
     overlaps: pd.DataFrame  # OVERLAP_COLUMNS: our own check's overlap events
+    approaches: pd.DataFrame  # results/engineer.py's APPROACH_COLUMNS: delay, LOS, queues per approach
 
 
 def result_tables(scn: Scenario, folder: Path, inputs: RunInputs, simulated: Simulated) -> RunTables:
@@ -59,7 +64,19 @@ def result_tables(scn: Scenario, folder: Path, inputs: RunInputs, simulated: Sim
                        {vid: (info.driver, info.vtype) for vid, info in simulated.infos.items()}, simulated.bodies)
     log = pd.DataFrame(list(simulated.collision_log), columns=COLLISION_LOG_COLUMNS)
     overlaps = pd.DataFrame(simulated.records.overlaps.rows, columns=list(OVERLAP_COLUMNS))
-    return RunTables(traj, steps, tripinfo, collisions, vehicles, pairs, log, overlaps)
+    junction_of = {vid: path_junction(inputs.movements, pid) for vid, pid in simulated.final_paths.items()
+                   if pid in inputs.paths}
+    approaches = approach_table(vehicles, junction_of, inputs.paths, read_queues(folder / QUEUES_FILE),
+                                scn.scenario.duration, los_table(scn, inputs.controller))
+    return RunTables(traj, steps, tripinfo, collisions, vehicles, pairs, log, overlaps, approaches)
+
+
+def los_table(scn: Scenario, controller) -> str:
+    """The HCM level-of-service table of a run: signalized under traffic lights (a signal
+    controller, or the lights a net keeps with ``signals = "on"``), else unsignalized."""
+    lit = controller.junction_type == "traffic_light" or (not scn.network.generated and scn.network.signals == "on"
+                                                         and not controller.controls_vehicles)
+    return "HCM signalized" if lit else "HCM unsignalized"
 
 
 def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str, MovementPath]) -> dict:
@@ -96,12 +113,29 @@ def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics:
     tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
     tables.collision_log.to_csv(folder / COLLISION_LOG_FILE, index=False, float_format="%.4f")
     tables.overlaps.to_csv(folder / OVERLAPS_FILE, index=False, float_format="%.4f")
+    tables.approaches.to_csv(folder / APPROACHES_FILE, index=False, float_format="%.4f")
     write_units(folder, csv_columns(folder))  # units.csv: the unit of every column above
 
 
+def vehicle_counts(scn: Scenario, own: int, loaded: int, tripinfo: pd.DataFrame) -> dict:
+    """The run's vehicles, each counted once: ``vehicles`` the scenario's own ``own`` plus those of
+    its route file due to depart in the run (in the demand window; with ``keep_all_demand`` those
+    SUMO loaded), ``departed`` those SUMO inserted, ``arrived``, ``not_inserted`` (SUMO's backlog
+    at the end) and ``never_arrived`` (inserted, still driving at the end); and the route file's
+    ``in_files`` and ``in_window``. ``loaded`` [-] is how many SUMO loaded during the run."""
+    demand = file_counts(scn)
+    due = own + (demand["in_window"] if not scn.scenario.keep_all_demand else 0)
+    vehicles = max(due, loaded)
+    departed = int(tripinfo["depart"].notna().sum())
+    arrived = int(tripinfo["arrival"].ge(0).sum())
+    return {"vehicles": int(vehicles), **demand, "departed": departed, "arrived": arrived,
+            "not_inserted": int(max(0, vehicles - departed)), "never_arrived": departed - arrived}
+
+
 def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None,
-                onboard_caps: int | None = None) -> dict:
-    """The run's summary.json: what ran, with which settings and versions, counts and metrics."""
+                onboard_caps: int | None = None, counts: dict | None = None) -> dict:
+    """The run's summary.json: what ran, with which settings and versions, counts and metrics;
+    ``counts``: :func:`vehicle_counts` (None: the vehicles of ``infos`` and tripinfo's)."""
     s = scn.scenario
     tripinfo, collisions, steps = tables.tripinfo, tables.collisions, tables.steps
     vehicles, pairs = tables.vehicles, tables.pairs
@@ -110,8 +144,7 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
         "scenario": s.name, "source": scn.source, "controller": scn.controller.kind, "seed": s.seed,
         "settings": resolved_settings(scn),
         "versions": versions(),
-        "counts": {"vehicles": int(len(infos)), "departed": int(tripinfo["depart"].notna().sum()),
-                   "arrived": int(tripinfo["arrival"].ge(0).sum()), "collisions": int(len(collisions)),
+        "counts": {**(counts or vehicle_counts(scn, len(infos), 0, tripinfo)), "collisions": int(len(collisions)),
                    "control_steps": int(steps["time"].nunique()), "junction_steps": int(len(steps)),
                    "deadline_misses": int(steps["deadline_missed"].sum()),
                    "fallbacks": int(steps["fallback"].sum()),
@@ -124,8 +157,11 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
         # SUMO's records, distinct vehicles and pairs, split by whether a vehicle under a
         # controller is involved, and our own overlap check beside them (results/collision_counts.py)
         "collisions": collision_counts(tables.collision_log, tables.overlaps),
+        # control delay and LOS, fuel and CO2 from SUMO's outputs (results/engineer.py); per approach: approaches.csv
+        "engineer": {**delay_summary(tables.approaches), **run_energy(tripinfo)},
         "metrics": {
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
+            "mean_time_loss": _num(vehicles["time_loss"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,
             "min_ttc_ssm": _num(pairs["min_ttc_ssm"].min()) if len(pairs) else None,
             # [s] when SSM took it (at the first step: the vehicles' speeds as inserted, before any decision)

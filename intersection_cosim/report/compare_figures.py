@@ -110,3 +110,20 @@ def metric_vs_axis(table: pd.DataFrame, metric: str, label: str, axis: str, axis
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return save_figure(fig, out_png)
+
+
+def grouped_bars(values: pd.DataFrame, label: str, out_png: Path) -> Path:
+    """One group of bars per row of ``values`` (e.g. a scenario), one bar per column (a controller)."""
+    rows, cols = list(values.index), list(values.columns)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.2 * len(rows) * max(1, len(cols)) / 3), 4.2))
+    width = 0.8 / max(1, len(cols))
+    cmap = plt.get_cmap("tab10")
+    for k, col in enumerate(cols):
+        x = np.arange(len(rows)) + (k - (len(cols) - 1) / 2) * width
+        ax.bar(x, values[col].to_numpy(float), width, label=str(col), color=cmap(k % 10))
+    ax.set_xticks(np.arange(len(rows)), [str(r) for r in rows])
+    ax.set_ylabel(label)
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, out_png)

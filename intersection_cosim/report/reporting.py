@@ -302,6 +302,7 @@ def run_report(folder: Path) -> Path:
     lines = [f"# Run report: {title}", "", f"- folder: `{folder}`{gui}",
              f"- versions: {', '.join(f'{k} {v}' for k, v in summary.get('versions', {}).items())}", "",
              "## Summary", "", markdown_table(counts), "", markdown_table(metrics), ""]
+    lines += _engineer_section(folder, summary, figs, figures, title)
     lines += _junction_section(folder, summary, step_rows, figs, figures, title)
     for name, caption in ((VEHICLES_FILE, "Vehicles"), (PAIRS_FILE, "Conflicting pairs")):
         if (folder / name).is_file():
@@ -338,6 +339,30 @@ def _junction_section(folder: Path, summary: dict, steps: pd.DataFrame, figs: Pa
             f"One controller per junction. Delay: time lost against {v_free:g} m/s while on the junction's "
             "movement paths (control range, junction, exit lane); compute time per junction and control step.",
             "", markdown_table(table), ""]
+
+
+def _engineer_section(folder: Path, summary: dict, figs: Path, figures: list, title: str) -> list[str]:
+    """The traffic engineer's view (results/engineer.py): control delay, LOS, fuel and CO2 of the
+    run, the per-approach table, and the delay-per-approach figure appended to ``figures``."""
+    from intersection_cosim.report.engineer_figures import approach_delay_figure
+    from intersection_cosim.results.layout import APPROACHES_FILE
+
+    eng = summary.get("engineer")
+    if eng is None or not (folder / APPROACHES_FILE).is_file():
+        return []
+    table = pd.read_csv(folder / APPROACHES_FILE, dtype={"junction": str, "approach": str})
+    fig = approach_delay_figure(table, figs / "approach_delay.png", f"Control delay per approach: {title}")
+    if fig is not None:
+        figures.append(("control delay per approach, coloured by HCM level of service", fig))
+    classes = ", ".join(f"{k}: {v}" for k, v in (eng.get("emission_classes") or {}).items())
+    run = pd.DataFrame([{k: v for k, v in eng.items() if k != "emission_classes"}])
+    return ["## Traffic engineer's view", "",
+            "Control delay: SUMO's time loss (tripinfo) of the arrived trips, per approach and movement; "
+            f"level of service by the {eng.get('los_table') or 'HCM'} table; queues [m] from SUMO's queue "
+            "output of the approach edge (95th percentile over the steps with a queue, maximum); throughput "
+            "[veh/h] of the demand window; fuel [g] and CO2 [kg] from SUMO's emissions device (HBEFA; "
+            f"emission classes {classes or 'not recorded'}).", "",
+            markdown_table(run), "", markdown_table(table), ""]
 
 
 def _animation_section(folder: Path) -> list[str]:

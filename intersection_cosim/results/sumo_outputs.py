@@ -23,16 +23,32 @@ def _float(text: str | None) -> float:
 
 
 def read_tripinfo(path: str | Path) -> pd.DataFrame:
-    """One row per vehicle: depart, arrival, duration, time_loss [s], arrival_lane (SUMO id)."""
+    """One row per vehicle: depart, arrival, duration, time_loss [s], arrival_lane (SUMO id),
+    and fuel_mg, co2_mg [mg] of its emissions device (NaN without one)."""
     rows = []
     for _, el in ET.iterparse(path):
         if el.tag == "tripinfo":
+            em = el.find("emissions")
             rows.append({"vehicle": el.get("id"), "depart": _float(el.get("depart")),
                          "arrival": _float(el.get("arrival")), "duration": _float(el.get("duration")),
                          "time_loss": _float(el.get("timeLoss")), "arrival_lane": el.get("arrivalLane"),
-                         "vaporized": el.get("vaporized", "")})
+                         "vaporized": el.get("vaporized", ""),
+                         "fuel_mg": _float(em.get("fuel_abs")) if em is not None else math.nan,
+                         "co2_mg": _float(em.get("CO2_abs")) if em is not None else math.nan})
     return pd.DataFrame(rows, columns=["vehicle", "depart", "arrival", "duration", "time_loss",
-                                       "arrival_lane", "vaporized"])
+                                       "arrival_lane", "vaporized", "fuel_mg", "co2_mg"])
+
+
+def read_queues(path: str | Path) -> pd.DataFrame:
+    """One row per edge of SUMO's aggregated queue output: p95_m and max_m [m], the 95th-percentile
+    and maximum queue length over the run (no file: no rows)."""
+    rows = []
+    if Path(path).exists():
+        for _, el in ET.iterparse(path):
+            if el.tag == "edge":
+                rows.append({"edge": el.get("id"), "p95_m": _float(el.get("percentileQueueLengthInMeters")),
+                             "max_m": _float(el.get("maxQueueLengthInMeters"))})
+    return pd.DataFrame(rows, columns=["edge", "p95_m", "max_m"]).drop_duplicates("edge", keep="last")
 
 
 SSM_COLUMNS = ["ego", "foe", "min_ttc", "min_ttc_time", "pet", "max_drac", "ssm_collision"]

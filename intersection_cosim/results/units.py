@@ -2,7 +2,7 @@
 states them beside the CSVs of a run, sweep, comparison or report folder.
 
 The column names stay short (``travel_time``, ``heading``) so every reader keeps its names; the
-sidecar gives each a unit: ``s``, ``ms``, ``m``, ``m/s``, ``m/s^2``, ``rad``, ``veh/h``, or a
+sidecar gives each a unit: ``s``, ``ms``, ``m``, ``m/s``, ``m/s^2``, ``rad``, ``veh/h``, ``g``, or a
 declaration that it has none: ``1`` (a dimensionless number: a ratio, a share, kappa), ``count``,
 ``bool`` or ``text`` (an id or a label, numbers such as a seed included).
 """
@@ -122,6 +122,17 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "junction_steps": ("count", "steps of one junction's controller"),
     "deadline_miss_share": ("1", "share of junction steps that overran their budget"),
     "deferred_step_share": ("1", "share of steps with deferred work"),
+    "not_inserted": ("count", "vehicles due that SUMO never inserted"),
+    "control_delay": ("s", "control delay: SUMO's time loss of the arrived trips through the junction"),
+    "los": ("text", "HCM level of service of the control delay"),
+    "queue_p95_max": ("m", "largest 95th-percentile queue of an approach (SUMO's queue output)"),
+    "fuel_g_per_trip": ("g", "fuel per arrived trip (SUMO's emissions device)"),
+    "co2_g_per_trip": ("g", "CO2 per arrived trip (SUMO's emissions device)"),
+    # approaches.csv
+    "los_table": ("text", "the HCM table the LOS is read from (signalized or unsignalized)"),
+    "throughput": ("veh/h", "arrived trips per hour of the demand window"),
+    "queue_p95": ("m", "95th percentile of the approach edge's queue over the steps with a queue (SUMO)"),
+    "queue_max": ("m", "longest queue of the approach edge (SUMO's queue output)"),
     # reproduce_paper.py's tables
     "pair": ("text", "the two vehicles"),
     "paper_min_ttc": ("s", "the paper's min TTC"),

@@ -33,13 +33,14 @@ from intersection_cosim.scenario.model import (
     VehicleType,
 )
 from intersection_cosim.scenario.network import net_of, network_settings, route_file_ids
+from intersection_cosim.scenario.sumocfg import check_window
 from intersection_cosim.scenario.values import choice, number, unknown_keys
 from intersection_cosim.scenario.vtypes import referenced, route_file_vtypes, vtypes_of, with_vtype_defaults
 from intersection_cosim.settings import from_table
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
 TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "vehicle", "flow", "v2x")
-CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
+CONTROLLER_TABLES = ("game", "solver", "policy", "safety", "signals")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed", "driver", "vtype")
 PLACEMENT_TOLERANCE = 1.0  # [m] a position farther than this from every path of its movement is an error
@@ -218,13 +219,30 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path
         raise InputError(src, "human", data["human"], "must be a table")
     human = from_table(HumanDriverSettings, data.get("human"), src, "human")
     network = network_settings(src, data.get("network"), Path(src).parent if base is None else Path(base))
+    scen = _clock(src, scen, data.get("scenario") or {}, network)
     route_types = route_file_vtypes(network.routes) if network.routes is not None else ()
     vtypes = vtypes_of(src, data.get("vtype"), route_types)
     vehicles, flows = _demand(src, data, scen, model, network, vtypes)
     v2x = _v2x(src, data.get("v2x"), vehicles, flows, network)
+    if network.routes is not None and not scen.keep_all_demand:
+        check_window(src, network.routes, scen.begin, scen.duration)
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
                     controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network,
                     v2x=v2x, human=human, vtypes=vtypes)
+
+
+def _clock(src: str, scen: ScenarioSettings, table: dict, network: NetworkSettings) -> ScenarioSettings:
+    """``scen`` with ``begin`` [s] resolved (the table's, else the sumocfg's, else 0) and, when the
+    table gives no ``duration``, the sumocfg's end - begin [s] as the demand window."""
+    begin = scen.begin if scen.begin is not None else (network.sumocfg_begin or 0.0)
+    duration = scen.duration
+    if "duration" not in table and network.sumocfg_end is not None:
+        duration = network.sumocfg_end - begin
+        if duration <= 0:
+            raise InputError(src, "scenario.begin", begin,
+                             f"is not before the end of {network.sumocfg} ({network.sumocfg_end:g} s); "
+                             "give scenario.duration")
+    return dataclasses.replace(scen, begin=float(begin), duration=float(duration))
 
 
 def _v2x(src: str, table: Any, vehicles: list[VehicleSpec], flows: list[FlowSpec],

@@ -17,7 +17,13 @@ class ScenarioSettings:
     """The ``[scenario]`` table."""
 
     name: str = "scenario"  # [-] used in output folder names
-    duration: float = 60.0  # [s] demand is generated up to this time
+    begin: float | None = None  # [s] SUMO's clock when the run starts (None: the [network] sumocfg's
+    #                             begin, else 0); route files with real clock times run unchanged
+    duration: float = 60.0  # [s] demand window counted from ``begin``: flows generate vehicles and
+    #                         a route file's vehicles depart within [begin, begin + duration)
+    #                         (default with a sumocfg: its end - begin)
+    keep_all_demand: bool = False  # [-] true: every vehicle of a [network] route file departs as
+    #                               written, also after the window (SUMO skips those before begin)
     drain: float = 60.0  # [s] after ``duration`` the run goes on this long for vehicles to leave;
     #                      it ends as soon as every vehicle has left
     step_length: float = 0.05  # [s] SUMO step; the control period is a multiple of it
@@ -33,6 +39,9 @@ class ScenarioSettings:
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "duration", "step_length", "exit_distance")
+        if self.begin is not None and (isinstance(self.begin, bool) or not isinstance(self.begin, (int, float))
+                                       or not math.isfinite(self.begin) or self.begin < 0):
+            problems.append(("begin", "must be a number >= 0 [s]"))
         problems += non_negative(self, "drain", "deadlock_time", "memory_limit")
         if self.junction_type not in JUNCTION_TYPES:
             problems.append(("junction_type", f"must be one of {', '.join(JUNCTION_TYPES)}"))
@@ -154,6 +163,10 @@ class NetworkSettings:
     signals: str = "off"  # [-] traffic-light junctions among them: "off" = run unsignalized, "on" = keep the lights
     control_range: float = 100.0  # [m] upstream of a junction where the controller takes a vehicle over
     routes: str | None = None  # [-] absolute path of the user's own SUMO route file (None: none)
+    sumocfg: str | None = None  # [-] absolute path of the user's .sumocfg the other fields came from (None: none)
+    additional: tuple[str, ...] = ()  # [-] absolute paths of SUMO additional files (detectors, programmes)
+    sumocfg_begin: float | None = None  # [s] the sumocfg's begin (None: no sumocfg, or it gives none)
+    sumocfg_end: float | None = None  # [s] the sumocfg's end (None: no sumocfg, or it gives none)
 
     @property
     def generated(self) -> bool:

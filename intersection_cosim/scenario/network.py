@@ -24,8 +24,9 @@ from intersection_cosim.errors import InputError
 from intersection_cosim.network.junction_net import junction_table, load_movements
 from intersection_cosim.network.xml_files import xml_root
 from intersection_cosim.scenario.model import PAPER_JUNCTION, SIGNALS, NetworkSettings
+from intersection_cosim.scenario.sumocfg import SumoConfig, read_sumocfg
 
-NETWORK_KEYS = ("file", "junctions", "signals", "control_range", "routes")
+NETWORK_KEYS = ("sumocfg", "file", "junctions", "signals", "control_range", "routes", "additional")
 ROUTE_CHECK_TIMEOUT = 30.0  # [s] wall time SUMO may take to load a user route file
 VAR = re.compile(r"\$(\w+)|\$\{(\w+)\}")
 
@@ -199,21 +200,65 @@ def network_settings(src: str, table: Any, base: Path) -> NetworkSettings:
     for key in table:
         if key not in NETWORK_KEYS:
             raise InputError(src, f"network.{key}", table[key], f"unknown key (known: {', '.join(NETWORK_KEYS)})")
-    if "file" not in table:
+    cfg = None
+    if "sumocfg" in table:
+        cfg = read_sumocfg(src, table["sumocfg"], resolve_path(src, "network.sumocfg", table["sumocfg"], base))
+    if "file" not in table and cfg is None:
         return _generated(src, table)
-    net_file = resolve_path(src, "network.file", table["file"], base)
-    net = _net(src, table["file"], net_file)
+    net_value, net_file = _net_file(src, table, cfg, base)
+    net = _net(src, net_value, net_file)
     if "junctions" not in table:
         raise InputError(src, "network.junctions", None, "is required with network.file (the ids to manage)")
-    routes = None
-    if "routes" in table:
-        routes = _routes(src, table["routes"], resolve_path(src, "network.routes", table["routes"], base), net_file)
+    routes_value, routes_path = _route_file(src, table, cfg, base)
+    routes = None if routes_path is None else _routes(src, routes_value, routes_path, net_file)
     junctions = _all_junctions(src, net_file) if table["junctions"] == "all" else _junctions(src, table["junctions"], net)
     settings = NetworkSettings(file=net_file, junctions=junctions,
                                signals=_signals(src, table.get("signals", "off")),
-                               control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes)
+                               control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes,
+                               sumocfg=None if cfg is None else cfg.path,
+                               additional=_additional(src, table, cfg, base),
+                               sumocfg_begin=None if cfg is None else cfg.begin,
+                               sumocfg_end=None if cfg is None else cfg.end)
     _check_manageable(src, settings)
     return settings
+
+
+def _net_file(src: str, table: dict, cfg: SumoConfig | None, base: Path) -> tuple[Any, str]:
+    """(as given, absolute path) of the net: ``file`` if the table has it, else the sumocfg's net-file."""
+    if "file" in table:
+        return table["file"], resolve_path(src, "network.file", table["file"], base)
+    if cfg.net is None:
+        raise InputError(src, "network.sumocfg", cfg.path, "names no net-file (give network.file)")
+    return cfg.net, cfg.net
+
+
+def _route_file(src: str, table: dict, cfg: SumoConfig | None, base: Path) -> tuple[Any, str | None]:
+    """(as given, absolute path or None) of the route file: ``routes`` if the table has it, else
+    the sumocfg's one route file (None: neither gives one)."""
+    if "routes" in table:
+        return table["routes"], resolve_path(src, "network.routes", table["routes"], base)
+    if cfg is None or not cfg.routes:
+        return None, None
+    if len(cfg.routes) > 1:
+        raise InputError(src, "network.sumocfg", cfg.path,
+                         f"lists {len(cfg.routes)} route files; a run reads one (merge them, or name one with "
+                         "network.routes)")
+    return cfg.routes[0], cfg.routes[0]
+
+
+def _additional(src: str, table: dict, cfg: SumoConfig | None, base: Path) -> tuple[str, ...]:
+    """The additional files: ``additional`` (a list of paths) if the table has it, else the sumocfg's."""
+    if "additional" not in table:
+        files = () if cfg is None else cfg.additional
+    else:
+        value = table["additional"]
+        if not isinstance(value, list):
+            raise InputError(src, "network.additional", value, "must be a list of file paths")
+        files = tuple(resolve_path(src, "network.additional", v, base) for v in value)
+    for path in files:
+        if not os.path.isfile(path):
+            raise InputError(src, "network.additional", path, "no such file")
+    return files
 
 
 def _check_manageable(src: str, settings: NetworkSettings) -> None:
@@ -235,8 +280,9 @@ def _generated(src: str, table: dict) -> NetworkSettings:
         raise InputError(src, "network.signals", table["signals"], "needs network.file")
     if "control_range" in table and _control_range(src, table["control_range"]) != default.control_range:
         raise InputError(src, "network.control_range", table["control_range"], "needs network.file")
-    if "routes" in table:
-        raise InputError(src, "network.routes", table["routes"], "needs network.file")
+    for key in ("routes", "additional"):
+        if key in table:
+            raise InputError(src, f"network.{key}", table[key], "needs network.file or network.sumocfg")
     return default
 
 

@@ -91,6 +91,9 @@ class SumoSimulation:
     min_gaps: dict[str, float] = field(default_factory=dict)  # [m] SUMO's minGap per vehicle, read at departure
     collision_log: list[CollisionRecord] = field(default_factory=list)  # SUMO's collisions, step by step
     guard: OnboardGuard | None = None  # made by start() from ``onboard``
+    loaded: int = 0  # [-] vehicles SUMO has loaded from the route files so far (inserted or not)
+    emission_classes: dict[str, str] = field(default_factory=dict)  # vType -> its emission class (SUMO's HBEFA
+    #   model computes each vehicle's fuel and CO2 with it)
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
     _people: CrossingPeople | None = None
     _watched: Mapping[str, frozenset[str]] = field(default_factory=dict)  # the lanes in and around the
@@ -164,6 +167,7 @@ class SumoSimulation:
                 raise RouteRefusal(self.time + self.step_length, str(exc)) from None
             raise
         self.time = self.api.simulation.getTime()
+        self.loaded += self.api.simulation.getLoadedNumber()
         self.collision_log += step_collisions(self.api, self.time, self.controlled())
         if self.people_first and self._people is not None:
             self._people.people_first()
@@ -175,6 +179,9 @@ class SumoSimulation:
             self.bodies[vid] = (veh.getLength(vid), veh.getWidth(vid), veh.getAccel(vid), veh.getDecel(vid),
                                 veh.getEmergencyDecel(vid))
             self.min_gaps[vid] = veh.getMinGap(vid)
+            vtype = veh.getTypeID(vid)
+            if vtype not in self.emission_classes:
+                self.emission_classes[vtype] = veh.getEmissionClass(vid)
             if info.desired_speed is not None:
                 self.api.vehicle.setMaxSpeed(vid, info.desired_speed)
             if info.intended_path is None:
@@ -347,6 +354,8 @@ class SumoSimulation:
         for vid, lane in decisions.exit_lane.items():
             if vid in self.vehicles and self.vehicles[vid].driver != "human":
                 self.vehicles[vid].exit_lane = lane
+        for tls, state in decisions.signals.items():
+            self.api.trafficlight.setRedYellowGreenState(tls, state)
         for vid in decisions.release:
             if vid in self.owner and decisions.owner.get(vid, self.owner[vid]) == self.owner[vid]:
                 self._release(vid)

@@ -221,3 +221,25 @@ def test_demand_scenarios_parse(kind, level, total):
         (a, m) for a in ("north", "east", "south", "west") for m in ("left", "straight", "right")}
     ns = sum(f.rate for f in scn.flows if f.approach in ("north", "south")) / total
     assert ns == pytest.approx(0.5 if kind == "balanced" else 0.6, abs=0.01)
+
+
+def test_fcfs_yields_to_a_human_and_never_commands_it(net_file, paths):
+    """Mixed traffic: A and B would meet at their crossing point, A a little earlier at its stop
+    line. Both AVs: first come (A) is served first and B waits. B a human: B is not commanded and
+    its predicted occupancy is reserved first, so A waits."""
+    a, b = "west_middle_straight_middle", "south_middle_straight_middle"
+    results = {}
+    for human in (False, True):
+        ctrl = FcfsController()
+        ctrl.setup(ControlContext(movements=paper_movements(net_file), model=ModelSettings(),
+                                  control_period=0.1, settings=None, etm=True))
+        p, q = ctrl.table.index[a], ctrl.table.index[b]
+        d_b = 20.0 + (ctrl.table.s_a[p, q] - paths[a].s_stop) - (ctrl.table.s_b[p, q] - paths[b].s_stop) + 0.3
+        assert d_b > 20.0  # B reaches its stop line later than A, the crossing point at about A's time
+        world = _world(paths, 0.0, [("A", a, 20.0, 10.0), ("B", b, d_b, 10.0)])
+        world.human = np.array([False, human])
+        results[human] = (ctrl.decide(world, deadline=float("inf")), dict(ctrl.grants))
+    (av_decisions, av_grants), (h_decisions, h_grants) = results[False], results[True]
+    assert av_grants["A"].earliest and not av_grants["B"].earliest and "B" in av_decisions.accel
+    assert "B" not in h_decisions.accel and "B" not in h_grants
+    assert not h_grants["A"].earliest and h_decisions.accel["A"] < 0.0

@@ -8,18 +8,19 @@ import pytest
 from intersection_cosim.experiments.axes import AXES
 from intersection_cosim.experiments.compare import COLUMNS as COMPARISON_COLUMNS
 from intersection_cosim.results import layout
+from intersection_cosim.results.engineer import APPROACH_COLUMNS
 from intersection_cosim.results.metrics import PAIR_COLUMNS, VEHICLE_COLUMNS
 from intersection_cosim.results.overlaps import OVERLAP_COLUMNS
 from intersection_cosim.results.sweep_folder import COUNT_COLUMNS, TIMING_COLUMNS
 from intersection_cosim.results.units import UNITLESS, UNITS_FILE, csv_columns, unit_of, units_table, write_units
 
-PHYSICAL = ("s", "ms", "m", "m/s", "m/s^2", "rad", "veh/h")
+PHYSICAL = ("s", "ms", "m", "m/s", "m/s^2", "rad", "veh/h", "g")
 WRITTEN = {  # file -> its columns, as the writers declare them
     "trajectories.csv": layout.TRAJECTORY_COLUMNS, "steps.csv": layout.STEP_COLUMNS,
     "convergence.csv": layout.CONVERGENCE_COLUMNS, "games.csv": layout.GAME_COLUMNS,
     "walkers.csv": layout.WALKER_COLUMNS, "collisions.csv": layout.COLLISION_LOG_COLUMNS,
     "overlaps.csv": list(OVERLAP_COLUMNS), "vehicles.csv": VEHICLE_COLUMNS, "pairs.csv": PAIR_COLUMNS,
-    "comparison.csv": [*COMPARISON_COLUMNS, *AXES],
+    "comparison.csv": [*COMPARISON_COLUMNS, *AXES], "approaches.csv": APPROACH_COLUMNS,
     "sweep.csv": ["run_id", "controller", "seed", "kappa_V1", "travel_time_V1", "mean_travel_time", "min_ttc_V1_V2",
                   "min_ttc_ssm_V1_V2", "pet_V1_V2", "min_ttc", "min_ttc_ssm", "min_pet", *COUNT_COLUMNS,
                   *TIMING_COLUMNS, "time_min_ttc_ssm", "v2x_messages_sent", "status", "error"],

@@ -48,6 +48,12 @@ same approach lane (a *following* pair) share a "stop-line point": from the fron
    and brakes to stop ``follow_gap`` before its line; the points it would have reserved stay free
    for the others.
 
+**Mixed traffic.** A human driver (and a guest another junction commands) is never commanded: its
+points are reserved first, every period, from its current state: from its earliest entry
+(accelerating at ``comfort_accel``) until it could have left accelerating only at
+``human_slow_accel``, so the AVs are granted slots around the humans' predicted occupancy and
+yield to them; the leader caps count humans as leaders too.
+
 The controller also fixes each vehicle's exit lane to its path's (``Decisions.exit_lane``) so that
 the points it reserved are the ones it drives through.
 """
@@ -163,11 +169,12 @@ class FcfsController:
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
-        active = [k for k in range(len(world)) if world.role[k] != "outside"]
+        observed = world.observed()
+        active = [k for k in range(len(world)) if world.role[k] != "outside" and (observed is None or not observed[k])]
         release = self._forget_departed(world, active)
         arrivals = self._arrivals(world)
         paths_present = set(world.path_ids)
-        order, busy = self._keep_committed(world, arrivals, paths_present)  # rule 1
+        order, busy = self._keep_committed(world, arrivals, paths_present, observed)  # rule 1
         held = self._exit_holds(world, order)  # rule 5
         order = [k for k in order if world.ids[k] not in held]
         self._grant_in_order(world, arrivals, order, paths_present, busy)  # rule 2
@@ -198,15 +205,20 @@ class FcfsController:
         cannot_stop = v * v / (2 * fs.max_brake) >= d - fs.follow_gap
         return _Arrivals(s_stop, d, past, v, _not_before_vehicle_ahead(world, past, t_e), v_e, cannot_stop)
 
-    def _keep_committed(self, world: World, arr: _Arrivals,
-                        paths_present: set[str]) -> tuple[list[int], Reservations]:
-        """Rule 1: re-reserve the committed vehicles' points (granted slot widened by the prediction
-        from now). Returns the indices of the other vehicles (to be planned, in world order) and
-        the reservations made."""
+    def _keep_committed(self, world: World, arr: _Arrivals, paths_present: set[str],
+                        observed: np.ndarray | None = None) -> tuple[list[int], Reservations]:
+        """Rule 1: reserve the humans' predicted points and re-reserve the committed vehicles'
+        (granted slot widened by the prediction from now). Returns the indices of the other
+        vehicles (to be planned, in world order) and the reservations made."""
         busy = Reservations()
         order = []
         for k in range(len(world)):
             vid = world.ids[k]
+            if observed is not None and observed[k]:
+                keys, s_in, s_out = self._points(world.path_ids[k], paths_present)
+                keep = world.s[k] <= s_out
+                busy.add(keys[keep], *self._human_occupancy(world, k, arr, s_in[keep], s_out[keep]))
+                continue
             grant = self.grants.get(vid)
             if not (arr.past[k] or vid in self.committed or (arr.cannot_stop[k] and grant is not None)):
                 order.append(k)
@@ -223,6 +235,14 @@ class FcfsController:
                                 zip(keys[keep], enter[keep], leave[keep])})
             busy.add(keys[keep], enter[keep], leave[keep])
         return order, busy
+
+    def _human_occupancy(self, world: World, k: int, arr: _Arrivals, s_in: np.ndarray, s_out: np.ndarray):
+        """(enter, leave) [s] of human ``k`` at its points: entering as early as it could
+        (``comfort_accel``), leaving as late as a gentle start (``human_slow_accel``) would."""
+        fs, vmax, s = self.fs, self.model.v_max, float(world.s[k])
+        enter = world.time + time_to_cover(s_in - s, arr.v[k], fs.comfort_accel, vmax)
+        leave = world.time + time_to_cover(s_out - s, arr.v[k], fs.human_slow_accel, vmax)
+        return enter, leave
 
     def _committed_occupancy(self, world: World, k: int, arr: _Arrivals, grant: Grant,
                              keys: np.ndarray, s_in: np.ndarray, s_out: np.ndarray):
@@ -360,8 +380,9 @@ class FcfsController:
         """Comfortable braking for approaching vehicles that can still stop; the rest keep going."""
         decisions = Decisions(fallback=True)
         period = self.ctx.control_period
+        observed = world.observed()
         for k in range(len(world)):
-            if world.role[k] == "outside":
+            if world.role[k] == "outside" or (observed is not None and observed[k]):
                 continue
             vid = world.ids[k]
             if vid in self.committed:

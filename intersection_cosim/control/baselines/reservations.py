@@ -28,6 +28,8 @@ class FcfsSettings:
     #                         room is held at its stop line without a reservation (control/safety/exit_room.py)
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
     standing_speed: float = 1.0  # [m/s] a vehicle inside the junction slower than this claims exit room
+    human_slow_accel: float = 0.5  # [m/s^2] a human driver's slowest plausible start: its reservation
+    #                                lasts until it could have cleared a point accelerating this gently
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "comfort_accel", "max_brake", "slot_step", "max_delay")
@@ -35,7 +37,7 @@ class FcfsSettings:
             problems.append(("buffer", "must be >= 0"))
         if not self.follow_gap >= 0:
             problems.append(("follow_gap", "must be >= 0"))
-        for name in ("exit_min_gap", "standing_speed"):
+        for name in ("exit_min_gap", "standing_speed", "human_slow_accel"):
             if not getattr(self, name) >= 0:
                 problems.append((name, "must be >= 0"))
         return problems
