@@ -26,7 +26,7 @@ from intersection_cosim.control.safety.onboard import OnboardSettings
 from intersection_cosim.errors import RouteRefusal
 from intersection_cosim.network.by_junction import path_junction
 from intersection_cosim.network.crossings import PedestrianCrossing
-from intersection_cosim.network.movements import OUTSIDE, PASSING, READY, Movements
+from intersection_cosim.network.movements import PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.sim.backend import LIBSUMO, SumoBackend, sumo_version, traci_backend
 from intersection_cosim.sim.collisions import CollisionRecord, step_collisions
@@ -34,6 +34,7 @@ from intersection_cosim.sim.exit_lanes import arrive_switched, switch_exit_lane
 from intersection_cosim.sim.lane_change_hold import LaneChangeHold
 from intersection_cosim.sim.onboard import OnboardGuard
 from intersection_cosim.sim.people import CrossingPeople
+from intersection_cosim.sim.signals import set_signal_states, switch_signals_off
 from intersection_cosim.sim.snapshot import Bodies, junction_bodies, lane_junctions, watched_lanes, world_snapshot
 from intersection_cosim.sim.vehicles import VehicleInfo
 
@@ -354,8 +355,7 @@ class SumoSimulation:
         for vid, lane in decisions.exit_lane.items():
             if vid in self.vehicles and self.vehicles[vid].driver != "human":
                 self.vehicles[vid].exit_lane = lane
-        for tls, state in decisions.signals.items():
-            self.api.trafficlight.setRedYellowGreenState(tls, state)
+        set_signal_states(self.api, decisions.signals)
         for vid in decisions.release:
             if vid in self.owner and decisions.owner.get(vid, self.owner[vid]) == self.owner[vid]:
                 self._release(vid)
@@ -375,16 +375,8 @@ class SumoSimulation:
             self.api.vehicle.setSpeed(vid, target)
 
     def switch_signals_off(self) -> list[str]:
-        """Switch off every traffic light that controls a link into a managed junction (its
-        state becomes O / o: no signal, so SUMO's own vehicles follow the junction's priority
-        rules); returns the programmes' ids."""
-        off = []
-        for tls in self.api.trafficlight.getIDList():
-            links = self.api.trafficlight.getControlledLinks(tls)
-            if any(link and self.movements.role(link[0][0]) != OUTSIDE for link in links):
-                self.api.trafficlight.setProgram(tls, "off")
-                off.append(tls)
-        return off
+        """Switch off the traffic lights at the managed junctions (sim/signals.py); their ids."""
+        return switch_signals_off(self.api, self.movements)
 
     def remaining(self) -> int:
         """Vehicles still in the network or waiting to be inserted."""
