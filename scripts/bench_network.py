@@ -19,12 +19,14 @@ ssm = false``: an output device, not the simulation), alternating controller and
   with no overhead, per step the largest load of a largest-first split of the junctions'
   compute (a bound from the measured per-junction times: the junctions run one after another);
 * collisions and arrivals of both runs (summary.json's counts), to see that the controller's
-  run is the one a change must not alter.
+  run is the one a change must not alter. The step budget is a wall-clock one: where it binds
+  (the anytime schedule cuts a step's iterations), the decisions depend on the machine's load;
+  ``--budget-ms 2000`` makes them the same run to run (behaviour_fingerprint.py's budget).
 
 A table goes to stderr; the last line of stdout is one JSON object.
 
     python scripts/bench_network.py [SCENARIO.toml ...] [--controller nash] [--repeats 1]
-        [--duration S] [--drain S] [--workers 2]
+        [--duration S] [--drain S] [--workers 2] [--budget-ms MS]
 """
 
 from __future__ import annotations
@@ -46,13 +48,14 @@ DEFAULTS = (ROOT / "scenarios" / "grid_high.toml", ROOT / "scenarios" / "corrido
 BASELINE = "sumo-priority"
 
 
-def one_run(scenario: Path, controller: str, out: Path, duration: float | None, drain: float | None) -> dict:
+def one_run(scenario: Path, controller: str, out: Path, duration: float | None, drain: float | None,
+            budget_ms: float | None = None) -> dict:
     """Run ``scenario`` under ``controller`` into ``out`` (SSM off); its wall times [s] and counts."""
     from intersection_cosim.experiments import closed_loop
     from intersection_cosim.experiments.run import run_scenario
     from intersection_cosim.scenario import load_scenario, with_overrides
 
-    scn = with_overrides(load_scenario(scenario), controller=controller)
+    scn = with_overrides(load_scenario(scenario), controller=controller, budget_ms=budget_ms)
     s = scn.scenario
     scn = dataclasses.replace(scn, scenario=dataclasses.replace(
         s, ssm=False, duration=s.duration if duration is None else duration, drain=s.drain if drain is None else drain))
@@ -77,9 +80,9 @@ def one_run(scenario: Path, controller: str, out: Path, duration: float | None, 
 def _spawn(scenario: Path, controller: str, out: Path, args) -> dict:
     """:func:`one_run` in a fresh process (libsumo runs one simulation per process)."""
     cmd = [sys.executable, __file__, "--one", str(scenario), "--controller", controller, "--out", str(out)]
-    for name in ("duration", "drain"):
+    for name in ("duration", "drain", "budget_ms"):
         if getattr(args, name) is not None:
-            cmd += [f"--{name}", str(getattr(args, name))]
+            cmd += [f"--{name.replace('_', '-')}", str(getattr(args, name))]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
         sys.stderr.write(done.stderr[-4000:])
@@ -138,11 +141,13 @@ def main(argv: list[str] | None = None) -> dict | None:
     ap.add_argument("--duration", type=float, help="[s] demand window (default: the scenario's)")
     ap.add_argument("--drain", type=float, help="[s] drain after it (default: the scenario's)")
     ap.add_argument("--workers", type=int, default=2, help="workers of the ideal parallel split")
+    ap.add_argument("--budget-ms", type=float, help="[ms] step budget per junction (default: the scenario's; "
+                    "a wall-clock budget that binds makes the decisions depend on the machine's load)")
     ap.add_argument("--one", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.one is not None:
-        print(json.dumps(one_run(args.one, args.controller, args.out, args.duration, args.drain)))
+        print(json.dumps(one_run(args.one, args.controller, args.out, args.duration, args.drain, args.budget_ms)))
         return None
     tmp = Path(tempfile.mkdtemp(prefix="bench_network-"))
     results = [bench(sc.resolve(), args, tmp) for sc in (args.scenarios or DEFAULTS)]
