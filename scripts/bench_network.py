@@ -9,8 +9,8 @@ ssm = false``: an output device, not the simulation), alternating controller and
 
 * ``wall_ratio``: median wall time of the controller's whole runs (setup, closed loop, outputs)
   over the median of SUMO's; the closed loop's ratio alone (``loop_ratio``: the runs' wall time
-  less setup and outputs); and ``cpu_ratio``, the same for the processes' CPU time (on a machine
-  others load too, less noisy than the wall time);
+  less setup and outputs); and ``cpu_ratio`` and ``loop_cpu_ratio``, the same for the process's
+  CPU time (on a machine others load too, less noisy than the wall time);
 * the controller's step: median and p95 over the control steps of the compute summed over the
   junctions [ms] (steps.csv's ``compute_ms``);
 * ``skipped_share``: the share of junction-steps whose controller had nothing to decide and was
@@ -63,18 +63,18 @@ def one_run(scenario: Path, controller: str, out: Path, duration: float | None, 
     inner = closed_loop._closed_loop
 
     def timed(*args, **kwargs):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         try:
             return inner(*args, **kwargs)
         finally:
-            loop.append(time.perf_counter() - t0)
+            loop.extend((time.perf_counter() - t0, time.process_time() - c0))
 
     closed_loop._closed_loop = timed
     t0, c0 = time.perf_counter(), time.process_time()
     summary = run_scenario(scn, out)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     counts = summary.get("counts", {})
-    return {"wall_s": wall, "cpu_s": cpu, "loop_s": loop[0], "collisions": counts.get("collisions"), "arrived": counts.get("arrived")}
+    return {"wall_s": wall, "cpu_s": cpu, "loop_s": loop[0], "loop_cpu_s": loop[1], "collisions": counts.get("collisions"), "arrived": counts.get("arrived")}
 
 
 def _spawn(scenario: Path, controller: str, out: Path, args) -> dict:
@@ -122,11 +122,13 @@ def bench(scenario: Path, args, tmp: Path) -> dict:
             runs[kind].append({**_spawn(scenario, kind, out, args), "out": str(out)})
             print(f"  {scenario.stem} {kind} #{r}: {runs[kind][-1]['wall_s']:.1f} s", file=sys.stderr)
     ctrl, base = runs[args.controller], runs[BASELINE]
-    med = {k: {f: float(np.median([x[f] for x in v])) for f in ("wall_s", "cpu_s", "loop_s")} for k, v in runs.items()}
+    med = {k: {f: float(np.median([x[f] for x in v])) for f in ("wall_s", "cpu_s", "loop_s", "loop_cpu_s")}
+           for k, v in runs.items()}
     return {"scenario": str(scenario), "runs": runs,
             "wall_ratio": med[args.controller]["wall_s"] / med[BASELINE]["wall_s"],
             "cpu_ratio": med[args.controller]["cpu_s"] / med[BASELINE]["cpu_s"],
             "loop_ratio": med[args.controller]["loop_s"] / med[BASELINE]["loop_s"],
+            "loop_cpu_ratio": med[args.controller]["loop_cpu_s"] / med[BASELINE]["loop_cpu_s"],
             "controller_wall_s": med[args.controller]["wall_s"], "sumo_wall_s": med[BASELINE]["wall_s"],
             **step_stats(Path(ctrl[-1]["out"]), args.workers),
             "collisions": [ctrl[-1]["collisions"], base[-1]["collisions"]],
