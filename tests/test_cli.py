@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 
@@ -62,3 +63,20 @@ def test_junctions_of_a_missing_net_is_one_line_and_status_2(capsys, tmp_path):
     assert main(["junctions", str(tmp_path / "none.net.xml")]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "no such file" in err
+
+
+def test_junctions_of_a_file_without_edges_is_one_line_and_status_2(capsys):
+    routes = Path(__file__).resolve().parents[1] / "scenarios" / "fokr38_people_low.rou.xml"
+    assert main(["junctions", str(routes)]) == 2  # a route file: sumolib reads it as a net without edges
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1 and "fokr38_people_low.rou.xml" in lines[0] and "no edges" in lines[0]
+
+
+def test_bare_command_prints_the_usage_and_every_command(capsys):
+    assert main([]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("usage: intersection-cosim")
+    for command in COMMANDS:
+        assert re.search(rf"^ +{command} +\S", text, re.M), command

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import glob
 import re
 import shlex
@@ -34,6 +35,36 @@ def test_no_reference_outside_the_repository():
         assert glob.glob(str(ROOT / pattern)), path
 
 
+def test_the_readme_is_short():
+    assert len(README.splitlines()) <= 300
+
+
+def test_every_link_into_the_repository_exists():
+    links = re.findall(r"\]\((?!https?:)([^)#\s]+)", README)
+    assert links, "the README links into the docs"
+    for link in links:
+        assert (ROOT / link).exists(), link
+
+
+def _settings_classes():
+    from tests.scripts.script_module import load_script
+
+    return [cls for _table, cls, _who in load_script("settings_reference").TABLES]
+
+
+def test_no_default_value_is_restated():
+    """A default is written once, in its settings class: the README names keys, never their defaults."""
+    for cls in _settings_classes():
+        for f in dataclasses.fields(cls):
+            default = f.default
+            if default is dataclasses.MISSING or default is None or isinstance(default, (tuple, str)):
+                continue
+            value = str(default).lower() if isinstance(default, bool) else f"{default:g}"
+            near = re.compile(rf"`?{re.escape(f.name)}`?\s*(=|:|\(|is|of|default)?\s*`?{re.escape(value)}\b")
+            assert not near.search(README), f"README restates {cls.__name__}.{f.name} = {value}"
+    assert not re.search(r"\bdefaults? (?:is |of |to )?`?\d", README)
+
+
 def test_the_install_commands_are_the_ones_ci_runs():
     ci = (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1]
     assert ci in _bash_lines(README)
@@ -43,7 +74,7 @@ def test_the_install_commands_are_the_ones_ci_runs():
 
 def test_a_first_session_follows_the_install_commands():
     start = README.index("## A first session")
-    assert README.index('pip install -e ".[test]"') < start < README.index("## The paper's cases")
+    assert README.index('pip install -e ".[test,docs]"') < start < README.index("## What it does")
     section = README[start:README.index("\n## ", start + 1)]
     commands = [c for c in _bash_lines(section) if c.startswith("intersection-cosim ")]
     assert [shlex.split(c)[1] for c in commands] == ["run", "report", "animate", "sweep", "report"]

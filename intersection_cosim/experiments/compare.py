@@ -1,4 +1,4 @@
-"""Controller comparison (issue 7): every controller x seed on one or more demand scenarios.
+"""Controller comparison: every controller x seed on one or more demand scenarios.
 
 ``intersection-cosim compare SCENARIO... --controllers K1,K2 --seeds 1-5 --out DIR`` runs one sweep
 per scenario (no kappa grid) into ``DIR/<scenario name>/`` through :func:`run_sweep` (so it is
@@ -6,13 +6,17 @@ resumable and runs on Dask too), then writes::
 
     DIR/comparison.csv                 one row per scenario x controller, aggregated over the seeds
     DIR/report.md                      the table
-    DIR/figures/<metric>_vs_demand.png one line per controller against demand [veh/h]
-                                       (bars per controller when there is one scenario)
+    DIR/figures/overview.png           every metric, one panel each: one line per controller against
+                                       demand [veh/h], or bars per controller and scenario at one level
+    DIR/figures/<metric>_vs_demand.png one line per controller against demand (two or more levels only)
+    DIR/figures/<metric>_vs_<axis>.png against a scenario axis (--latency, --loss) taking two or more values
 
 Aggregation over the seeds of a (scenario, controller): travel time mean and 95th percentile and
 time loss mean over all arrived vehicles of all seeds; throughput = arrived vehicles per hour of
 the demand window (``[scenario] duration``, summed over the seeds); SSM min TTC / min PET over all
-encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``);
+encounters and the share of encounters with TTC < 3 s or PET < 2 s (``files.SSM_THRESHOLDS``),
+leaving out the TTC 0 of encounters SSM classified as a collision (``ssm_collision_encounters``,
+counted beside SUMO's own ``collisions``: at merges SSM flags encounters that never touched);
 collisions summed (``pedestrian_collisions``: those of a vehicle and a person); ``late_or_stuck``:
 departed vehicles that never arrived (a deadlock) or lost more than 60 s against free flow
 (tripinfo's timeLoss: a queue that does not drain), whatever the length of their routes, so the
@@ -43,20 +47,22 @@ from intersection_cosim.experiments.sweep import (SweepOutcome, check_out, make_
                                                   sweep_jobs)
 from intersection_cosim.results.layout import COMPARISON_FILE, RUN_MARKER, SSM_FILE, STEPS_FILE, VEHICLES_FILE
 from intersection_cosim.results.sumo_outputs import read_ssm
-from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand
+from intersection_cosim.results.units import write_units
+from intersection_cosim.report.compare_figures import metric_vs_axis, metric_vs_demand, overview
 from intersection_cosim.results.sweep_folder import SweepSpec
 from intersection_cosim.scenario import scenario_from_dict
 
 TABLE_FILE = COMPARISON_FILE
 REPORT_FILE = "report.md"
 FIGURES_DIR = "figures"
+OVERVIEW_PNG = "overview.png"  # every FIGURE_METRICS metric, one panel each
 DEFAULT_CONTROLLERS = "nash,stackelberg,fcfs,sumo-priority,sumo-allway-stop,sumo-tls"
 
 LATE_AFTER = 60.0  # [s] a departed vehicle that lost more than this against free flow (or never arrived) is late or stuck
 
 COLUMNS = ["scenario", "demand_veh_h", "controller", "seeds", "runs_ok", "vehicles", "arrived",
            "travel_time_mean", "travel_time_p95", "time_loss_mean", "throughput_veh_h",
-           "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "collisions",
+           "ssm_min_ttc", "ssm_min_pet", "ssm_encounters", "ssm_share_under_thresholds", "ssm_collision_encounters", "collisions",
            "pedestrian_collisions", "late_or_stuck", "ended_early", "compute_ms_median", "compute_ms_p95", "control_steps", "junction_steps",
            "deadline_misses",
            "deadline_miss_share",
@@ -171,7 +177,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
         v = pd.concat(veh) if veh else pd.DataFrame(columns=["arrival", "travel_time", "time_loss"])
         v = v[v["arrival"].notna()] if len(v) else v
         st = pd.concat(steps) if steps else pd.DataFrame(columns=["compute_ms", "deadline_missed", "junctions"])
-        ss = pd.concat(ssm) if ssm else pd.DataFrame(columns=["min_ttc", "pet"])
+        ss = pd.concat(ssm) if ssm else pd.DataFrame(columns=["min_ttc", "pet", "ssm_collision"])
         tt = v["travel_time"].to_numpy(float)
         ttc = ss["min_ttc"].to_numpy(float)
         pet = ss["pet"].to_numpy(float)
@@ -187,6 +193,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
             "throughput_veh_h": arrived / window * 3600.0 if window > 0 else math.nan,
             "ssm_min_ttc": _min(ttc), "ssm_min_pet": _min(pet), "ssm_encounters": len(ss) if ssm else math.nan,
             "ssm_share_under_thresholds": float(under.mean()) if len(ss) else math.nan,
+            "ssm_collision_encounters": int(ss["ssm_collision"].astype(bool).sum()) if ssm else math.nan,
             "collisions": collisions if mine else math.nan,
             "pedestrian_collisions": walkers_hit if mine else math.nan,
             "late_or_stuck": late if mine else math.nan,
@@ -225,7 +232,7 @@ def write_report(out: Path, table: pd.DataFrame, figures: list[Path]) -> Path:
             "loss over the arrived vehicles of all seeds; throughput = arrived vehicles per hour of the demand "
             f"window; SSM share = encounters with TTC < {ttc_thr:g} s or PET < {pet_thr:g} s; compute time per "
             "control step.", "", markdown_table(table), ""]
-    text += _negative_time_loss_note(table)
+    text += _negative_time_loss_note(table) + _ssm_collision_note(table)
     text += ["## Figures", ""]
     text += [f"![{p.stem}]({p.relative_to(out).as_posix()})" for p in figures]
     path = out / REPORT_FILE
@@ -246,6 +253,46 @@ def _negative_time_loss_note(table: pd.DataFrame) -> list[str]:
             "true` makes the game controllers keep them (fcfs does not).", ""]
 
 
+def _ssm_collision_note(table: pd.DataFrame) -> list[str]:
+    """A note under the table when SSM classified encounters as collisions: their TTC 0 is left out
+    of the SSM min TTC, and SUMO's collision check (``collisions``) is the count of collisions."""
+    flagged = table[pd.to_numeric(table["ssm_collision_encounters"], errors="coerce") > 0]
+    if flagged.empty:
+        return []
+    who = ", ".join(f"{r.controller} ({r.scenario}): {r.ssm_collision_encounters:.0f} vs {r.collisions:.0f}"
+                    for r in flagged.itertuples())
+    return ["SSM classified encounters as collisions (type 111, TTC 0) in some runs; SSM min TTC leaves them "
+            "out, and `collisions` is SUMO's own collision check (SSM-flagged encounters vs collisions: "
+            f"{who}). SSM's gap estimate flags such encounters at merges, e.g. a vehicle waiting at its stop line "
+            "while another passes the merge point ahead of it.", ""]
+
+
+def _overview_title(table: pd.DataFrame, axes: list[str]) -> str:
+    demands = sorted(table["demand_veh_h"].unique())
+    where = (f"at {demands[0]:.0f} veh/h" if len(demands) == 1 else
+             f"against demand ({demands[0]:.0f}-{demands[-1]:.0f} veh/h)")
+    mean = f"; each the mean over {', '.join(axes)}" if axes else ""
+    return f"Controller comparison {where}, over the seeds{mean}"
+
+
+def draw_figures(out: Path, table: pd.DataFrame, axes: list[str]) -> list[Path]:
+    """The comparison's figures in ``out/figures/``: the overview, and a figure per metric only against
+    what varies (demand with two or more levels, a scenario axis with two or more values)."""
+    for stale in (out / FIGURES_DIR).glob("*.png"):  # an earlier call's figures (which ones are drawn may change)
+        stale.unlink()
+    keys = ["scenario", "demand_veh_h", "controller"]
+    per_scenario = table.groupby(keys, sort=False)[list(FIGURE_METRICS)].mean().reset_index() if axes else table
+    figures = [overview(per_scenario, FIGURE_METRICS, out / FIGURES_DIR / OVERVIEW_PNG, _overview_title(table, axes))]
+    if table["demand_veh_h"].nunique() > 1:  # a line against demand has something to show
+        figures += [metric_vs_demand(table, metric, label, out / FIGURES_DIR / f"{metric}_vs_demand.png")
+                    for metric, label in FIGURE_METRICS.items()]
+    # one figure per metric against each axis that takes two or more values
+    figures += [metric_vs_axis(table, metric, label, name, f"{name} [{AXES[name].unit}]",
+                               out / FIGURES_DIR / f"{metric}_vs_{name}.png", tuple(a for a in axes if a != name))
+                for name in axes if table[name].nunique() > 1 for metric, label in AXIS_FIGURE_METRICS.items()]
+    return figures
+
+
 def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
     """comparison.csv, report.md and the figures from the sweep folders under ``out``."""
     rows = []
@@ -256,13 +303,8 @@ def write_outputs(out: Path, specs: list[SweepSpec]) -> pd.DataFrame:
     table = pd.DataFrame(rows, columns=columns).sort_values(["demand_veh_h", "scenario"], kind="stable")
     table = table.reset_index(drop=True)
     table.to_csv(out / TABLE_FILE, index=False, float_format="%.6g")
-    if axes:  # one figure per axis and metric: the metric against the axis value
-        figures = [metric_vs_axis(table, metric, label, name, f"{name} [{AXES[name].unit}]",
-                                  out / FIGURES_DIR / f"{metric}_vs_{name}.png", tuple(a for a in axes if a != name))
-                   for name in axes for metric, label in AXIS_FIGURE_METRICS.items()]
-    else:
-        figures = [metric_vs_demand(table, metric, label, out / FIGURES_DIR / f"{metric}_vs_demand.png")
-                   for metric, label in FIGURE_METRICS.items()]
+    write_units(out, {TABLE_FILE: table.columns})
+    figures = draw_figures(out, table, axes)
     write_report(out, table, figures)
     return table
 

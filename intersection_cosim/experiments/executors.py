@@ -101,7 +101,7 @@ def job_scenario(job: Job):
 
 def run_job(job: Job) -> dict:
     """Run ``job`` in this process (which must not have run a simulation before); return its summary."""
-    summary = run_scenario(job_scenario(job), Path(job.run_dir))
+    summary = run_scenario(job_scenario(job), Path(job.run_dir), compress_trajectories=True)
     with contextlib.suppress(FileNotFoundError):
         os.remove(job.failed_file)  # a retry that succeeded clears the earlier failure
     return summary

@@ -23,13 +23,15 @@ from intersection_cosim.results.layout import RUN_MARKER
 from intersection_cosim.scenario.model import Scenario
 
 
-def run_scenario(scn: Scenario, out: str | Path, *, force: bool = False, fail_hook=None, gui=None) -> dict:
+def run_scenario(scn: Scenario, out: str | Path, *, force: bool = False, fail_hook=None, gui=None,
+                 compress_trajectories: bool = False) -> dict:
     """Run ``scn`` and write its results into ``out``; return the summary dict.
 
     ``out`` holding a finished run is refused (InputError) unless ``force``, which replaces it.
     ``gui`` (a :class:`~intersection_cosim.sim.gui.GuiSettings`) shows the run live in sumo-gui;
     None (the default) runs headless through libsumo. ``fail_hook`` (tests only) is called after
     the simulation loop, before the rename, so tests can simulate a crash at the worst moment.
+    ``compress_trajectories``: write trajectories.csv.gz instead of trajectories.csv (a sweep's runs).
     """
     out = Path(out)
     if gui is not None:
@@ -38,7 +40,7 @@ def run_scenario(scn: Scenario, out: str | Path, *, force: bool = False, fail_ho
         check_display()  # before anything is written
     tmp = prepare_output(out, force)
     try:
-        summary = _run_into(scn, tmp, gui)
+        summary = _run_into(scn, tmp, gui, compress_trajectories)
         if fail_hook is not None:
             fail_hook()
         finish_output(tmp, out)
@@ -48,13 +50,13 @@ def run_scenario(scn: Scenario, out: str | Path, *, force: bool = False, fail_ho
     return summary
 
 
-def _run_into(scn: Scenario, folder: Path, gui=None) -> dict:
+def _run_into(scn: Scenario, folder: Path, gui=None, compress: bool = False) -> dict:
     """Run ``scn`` with every output written into ``folder``; return the summary dict."""
     inputs = write_inputs(scn, folder)
     simulated = simulate(scn, folder, inputs, gui)
     tables = result_tables(scn, folder, inputs, simulated)
     diagnostics = inputs.controller.diagnostics()
-    write_tables(folder, tables, simulated.records, diagnostics)
+    write_tables(folder, tables, simulated.records, diagnostics, compress)
     summary = run_summary(scn, simulated.infos, tables, diagnostics, gui, simulated.onboard_caps)
     ended = simulated.records.ended
     summary["ended_early"] = ended[0]._asdict() if ended else None

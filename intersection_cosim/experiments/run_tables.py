@@ -21,11 +21,12 @@ from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.results.collision_counts import collision_counts
 from intersection_cosim.results.layout import (COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE, SSM_FILE, STEP_COLUMNS, STEPS_FILE,
-                                               TRAJECTORIES_FILE, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
+                                               TRAJECTORIES_FILE, TRAJECTORIES_GZ, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
                                                OVERLAPS_FILE, WALKER_COLUMNS, WALKERS_FILE)
 from intersection_cosim.results.metrics import pair_table, vehicle_table
 from intersection_cosim.results.overlaps import OVERLAP_COLUMNS
 from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS, read_collisions, read_ssm, read_tripinfo
+from intersection_cosim.results.units import csv_columns, write_units
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.settings import to_dict
 
@@ -73,10 +74,14 @@ def _with_movements(infos: dict, final_paths: dict[str, str], paths: Mapping[str
     return out
 
 
-def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics: Diagnostics) -> None:
+def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics: Diagnostics,
+                 compress: bool = False) -> None:
     """Write the run's CSVs into ``folder`` (convergence.csv only for a controller that solves games,
-    walkers.csv only for a run with people at its crossings)."""
-    tables.traj.to_csv(folder / TRAJECTORIES_FILE, index=False, float_format="%.4f")
+    walkers.csv only for a run with people at its crossings); with ``compress`` the trajectories,
+    most of a run's bytes, as trajectories.csv.gz."""
+    traj = folder / (TRAJECTORIES_GZ if compress else TRAJECTORIES_FILE)
+    tables.traj.to_csv(traj, index=False, float_format="%.4f",
+                       compression={"method": "gzip", "mtime": 0} if compress else None)  # mtime 0: same bytes
     if diagnostics.convergence is not None:
         rows = [(r.time, r.vehicle_a, r.vehicle_b, r.solver, r.status, m + 1, res)
                 for r in diagnostics.convergence for m, res in enumerate(r.residuals)]
@@ -91,6 +96,7 @@ def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics:
     tables.pairs.to_csv(folder / PAIRS_FILE, index=False, float_format="%.4f")
     tables.collision_log.to_csv(folder / COLLISION_LOG_FILE, index=False, float_format="%.4f")
     tables.overlaps.to_csv(folder / OVERLAPS_FILE, index=False, float_format="%.4f")
+    write_units(folder, csv_columns(folder))  # units.csv: the unit of every column above
 
 
 def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None,
@@ -122,6 +128,8 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
             "mean_travel_time": _num(vehicles["travel_time"].mean()),
             "min_ttc": _num(pairs["min_ttc"].min()) if len(pairs) else None,
             "min_ttc_ssm": _num(pairs["min_ttc_ssm"].min()) if len(pairs) else None,
+            # [s] when SSM took it (at the first step: the vehicles' speeds as inserted, before any decision)
+            "time_min_ttc_ssm": _ssm_time(pairs),
             # [ms] per control step, summed over the junctions' controllers
             "compute_ms_median": _num(step_compute.median()),
             "compute_ms_p95": _num(step_compute.quantile(0.95)),
@@ -130,6 +138,14 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
     if gui is not None:
         summary["gui"] = {"simulator": "sumo-gui through TraCI", "delay_ms": gui.delay_ms}
     return summary
+
+
+def _ssm_time(pairs) -> float | None:
+    """[s] the time of the run's smallest SSM min TTC (None: SSM recorded no TTC)."""
+    ttc = pairs["min_ttc_ssm"].astype(float) if len(pairs) else None
+    if ttc is None or not ttc.notna().any():
+        return None
+    return _num(pairs.loc[ttc.idxmin(), "time_min_ttc_ssm"])
 
 
 def _num(x) -> float | None:

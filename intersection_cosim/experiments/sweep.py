@@ -39,6 +39,7 @@ from intersection_cosim.experiments.executors import (OVERRIDE_TABLES, Job, exec
                                                       write_failure)
 from intersection_cosim.results.layout import FAILED_DIR, RUNS_DIR, SPEC_FILE, TABLE_FILE, failure_file, run_folder
 from intersection_cosim.results.sweep_folder import DECIMALS, SweepSpec, load_spec, safe_name, sweep_table
+from intersection_cosim.results.units import write_units
 from intersection_cosim.scenario import load_scenario
 
 LOCK_FILE = ".sweep.lock"
@@ -365,4 +366,5 @@ def write_table(out: str | Path, spec: SweepSpec | None = None) -> pd.DataFrame:
     out = Path(out)
     table = sweep_table(out, spec)
     _write_atomic(out / TABLE_FILE, table.to_csv(index=False, float_format="%.6g"))
+    write_units(out, {TABLE_FILE: table.columns})
     return table

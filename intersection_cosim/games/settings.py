@@ -35,8 +35,7 @@ class ProblemSettings:
     # [s^4/m^2] fall of that weight per unit of kappa: a player's weight is
     # max(min(w_accel_floor, w_accel), w_accel + w_accel_kappa (0.5 - kappa)), so an aggressive
     # driver accelerates and brakes harder and a cautious one keeps its plan smoother (0: the same
-    # for all). 0.25: kappa 0.2 weighs 0.175, 0.8 0.025; with it the aggressive V1 of Case 1 C is
-    # faster than A's (9.15 against 9.40 s) when both play their games (docs/design.md round 8)
+    # for all). 0.25: kappa 0.2 weighs 0.175, 0.8 0.025 (decision record 024)
     w_accel_kappa: float = 0.25
     # [s^4/m^2] least comfort weight of any player, where w_accel_kappa lowers it (it never
     # raises a weight above w_accel): its best response stays strictly convex (a kappa-0.9
@@ -67,23 +66,23 @@ class SolverSettings:
     """Equilibrium iterations, best responses and OSQP (``[controller.solver]``)."""
 
     # --- equilibrium iteration (Section IV-C, IV-D) ---
-    scheme: str = "gauss-seidel"  # "gauss-seidel" or "jacobi" best-response iteration
+    scheme: str = "gauss-seidel"  # [-] "gauss-seidel" or "jacobi" best-response iteration
     nash_max_iter: int = 30  # [-] iteration cap of the Nash best-response iteration
     sqp_steps_per_iteration: int = 1  # [-] SQP steps of each best response inside one iteration
-    # converged when no plan moved more than nash_tol in one iteration, or when no best response
-    # lowered its player's true cost by more than nash_cost_rtol (relative) and no plan moved
-    # more than nash_cost_guard: every player is then within a second-order small gain of its
-    # best response (a flat optimum may still shift a plan a little)
-    nash_tol: float = 1e-2  # [m/s^2]
-    nash_cost_rtol: float = 1e-3  # [-]
-    nash_cost_guard: float = 0.3  # [m/s^2]
-    cold_start_orders: bool = False  # cold Nash: also start from each passing order (3x the work)
+    # [m/s^2] the Nash iteration has converged when no plan moved more than this in one iteration
+    nash_tol: float = 1e-2
+    # [-] the Nash iteration has also converged when no best response lowered its player's true
+    # cost by more than this (relative) and no plan moved more than nash_cost_guard: every player is then within a second-order small
+    # gain of its best response (a flat optimum may still shift a plan a little)
+    nash_cost_rtol: float = 1e-3
+    nash_cost_guard: float = 0.3  # [m/s^2] largest plan move the cost test of nash_cost_rtol accepts
+    cold_start_orders: bool = False  # [-] cold Nash: also start from each passing order (3x the work)
     stackelberg_max_iter: int = 20  # [-] cap on leader iterations
     stackelberg_tol: float = 1e-2  # [m/s^2] converged when the leader's step is smaller than this
     stackelberg_gain_rtol: float = 1e-3  # [-] ... or its model gain is below this fraction
     stackelberg_attempts: int = 1  # [-] leader QPs per iteration: after a rejected step (all its
     #                                halves tried) the trust region shrinks and the QP is re-solved
-    # Stackelberg: a follower not settled when the leader's iteration stops is polished to a full
+    # [-] Stackelberg: a follower not settled when the leader's iteration stops is polished to a full
     # best response (up to br_max_sqp SQP steps); False keeps its last answer, as at a deadline,
     # and the solve counts as not converged: the real-time iteration of a game in progress
     # (PolicySettings.game_max_iter) goes on from it at the next step

@@ -1,4 +1,4 @@
-"""Solo best responses of many vehicles in one pass (issue 18): the vehicles in no game.
+"""Solo best responses of many vehicles in one pass: the vehicles in no game.
 
 A vehicle in no game minimises its own cost against its leader's predicted trajectory (J_log of
 Eqs. 15-18 and J_e of Eq. 24 in the running cost of Eqs. 13-14, with the comfort terms of

@@ -36,9 +36,8 @@ def lateral_risk_weight(kappa_own: float, kappa_partner: float, ms: ModelSetting
     """[-] weight of a player's J_lat term (Eq. 19) with a partner: the partner's risk times the
     player's own factor (:func:`partner_risk_weight`, :func:`own_risk_weight`), at least 1. The
     floor keeps an aggressive player, or one facing a cautious partner, from caring less about a
-    crossing than Eq. 19 does: without it the safety filter stepped in 31 % more often at 1800
-    veh/h than before the two factors (13 009 against 9 930 interventions) and one run of 60
-    locked (docs/design.md, issue 20 round 7)."""
+    crossing than Eq. 19 does: without it the safety filter stepped in much more often at high
+    demand and runs could lock (decision record 023)."""
     return max(1.0, partner_risk_weight(kappa_partner, ms) * own_risk_weight(kappa_own, ms))
 
 

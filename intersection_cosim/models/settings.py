@@ -2,7 +2,7 @@
 
 Every field can be set from a scenario file's ``[model]`` table; an unknown key is an error.
 The paper gives no numbers for most of these; the defaults are our calibration, chosen so that
-the paper's qualitative results hold (README, "Model parameters"; the history in docs/design.md).
+the paper's qualitative results hold (docs/decisions/ has the reasons and measurements).
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ class ModelSettings:
     # [s] fall of the preview time per unit of kappa: vehicle i previews
     # t_p^i = max(t_p_min, t_p + t_p_kappa (0.5 - kappa^i)) (Eq. 7 gives each AV its own t_p^i), so
     # a cautious driver sees a conflict, and plays its game, earlier than an aggressive one
-    # (0: every vehicle t_p). 4: kappa 0.2 previews 5.2 s, 0.8 2.8 s; Case 1 B's yielders play
-    # from the first step instead of being braked by the safety filter (issue 20, docs/design.md)
+    # (0: every vehicle t_p). 4: kappa 0.2 previews 5.2 s, 0.8 2.8 s, so Case 1 B's yielders play
+    # from the first step instead of being braked by the safety filter (decision record 031)
     t_p_kappa: float = 4.0
     t_p_min: float = 1.0  # [s] the shortest preview time t_p^i
     # The prediction is along the paths (models/prediction.py), in closed form: no sampled rollout
@@ -57,16 +57,14 @@ class ModelSettings:
     # [-] how strongly a partner's aggressiveness scales the risk it poses: each J_lat term of a
     # player is weighted by exp(k_lat_partner (kappa_q - 0.5)), kappa_q the partner's (the
     # potential field of a more aggressive vehicle is stronger, a^q = a_0 exp(kappa^q), Eq. 7);
-    # 0: every partner alike (Eq. 19 as written), 1: Eq. 7's factor. 3.5 (2 until the Nash
-    # iteration restored collapsed trust regions, 3 until round 8): Case 2 B/A 1.55 by min TTC
-    # (1.47 at 3) with the defaults of round 8 (docs/design.md rounds 7 and 8)
+    # 0: every partner alike (Eq. 19 as written), 1: Eq. 7's factor (decision records 022-024)
     k_lat_partner: float = 3.5
     # [-] how strongly a player's own aggressiveness scales the risk it takes: each of its J_lat
     # terms (with an AV or a human crosser) is also weighted by exp(-k_lat_own (kappa_p - 0.5)),
     # kappa_p its own; 1 is Eq. 7's factor of its own field, so a term weighs the partner's field
     # against its own. 0: Eq. 13's (1 - kappa) alone. The product of the two factors is floored
     # at 1 (games/objective.py lateral_risk_weight): a player never cares less than Eq. 19 does.
-    # With it a cautious follower yields earlier and more (docs/design.md round 7)
+    # With it a cautious follower yields earlier and more (decision record 023)
     k_lat_own: float = 1.0
     k_lk: float = 1.0  # [-] weight of lane-keeping safety J_lk (Eq. 14)
     k_y_lk: float = 0.008  # [1/m^2] weight of the lateral offset in J_lk (Eq. 23; calibrated on Case 2)

@@ -64,6 +64,8 @@ def _read(net_file: str):
         net = sumolib.net.readNet(net_file, withInternal=True)
     except Exception as exc:  # sumolib raises the XML parser's errors as they come
         raise InputError(net_file, NET_FIELD, net_file, f"not a readable SUMO net ({exc})") from None
+    if not net.getEdges():  # e.g. a route or additional file: sumolib reads it as an empty net
+        raise InputError(net_file, NET_FIELD, net_file, "is not a SUMO net (it has no edges)")
     return net, _lane_graph(net)
 
 

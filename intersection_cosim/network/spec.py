@@ -61,7 +61,7 @@ def exit_arm(approach: str, movement: str) -> str:
     return EXIT_ARM[approach][movement]
 
 
-# Lane use (issue 2, item 2): which exit lanes each approach lane may take for each movement.
+# Lane use: which exit lanes each approach lane may take for each movement.
 LANE_USE: dict[str, dict[str, tuple[str, ...]]] = {
     "inner": {"left": ("inner", "middle"), "straight": ("inner",)},
     "middle": {"straight": ("middle",)},

@@ -32,7 +32,7 @@ from intersection_cosim.network.build import NET_FILE
 from intersection_cosim.network.outline import NetOutline, junction_centre, read_outline
 from intersection_cosim.report.animation_frames import FrameDrawer
 from intersection_cosim.results.layout import (CONVERGENCE_FILE, GAMES_FILE, RUN_MARKER, TRAJECTORIES_FILE,
-                                               VEHICLES_FILE, WALKERS_FILE)
+                                               VEHICLES_FILE, WALKERS_FILE, trajectories_file)
 
 RUN_FILES = (RUN_MARKER, TRAJECTORIES_FILE, VEHICLES_FILE, NET_FILE)  # a run folder has these
 ANIMATION_FILE = "animation.gif"  # default output, in the run folder (the run report links it)
@@ -45,7 +45,7 @@ class AnimationSettings:
 
     fps: float = 10.0  # [1/s] frames per second of playback: 10 with frame_dt 0.1 s plays in real time
     frame_dt: float = 0.1  # [s] simulation time between frames (at least one trajectory sample)
-    max_frames: int = 600  # frames at most; a longer run is subsampled evenly
+    max_frames: int = 600  # [-] frames at most; a longer run is subsampled evenly
     size: tuple[int, int] = (800, 720)  # [px] frame width, height (even, for MP4)
     margin: float = 6.0  # [m] around the vehicles' extent in the view
     max_half_view: float = 40.0  # [m] the view reaches at most this far from the centre (paper cases start 18-30 m out)
@@ -74,7 +74,8 @@ def check_run_dir(run_dir: str | Path) -> Path:
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
         raise InputError("animate", "run_dir", str(run_dir), "no such folder")
-    missing = [name for name in RUN_FILES if not (run_dir / name).is_file()]
+    missing = [name for name in RUN_FILES
+               if not (trajectories_file(run_dir) if name == TRAJECTORIES_FILE else run_dir / name).is_file()]
     if missing:
         raise InputError("animate", "run_dir", str(run_dir), f"is not a run folder (no {', '.join(missing)})")
     return run_dir
@@ -96,7 +97,7 @@ def read_run(run_dir: Path, settings: AnimationSettings) -> RunRecord:
     """The trajectories, kappas, games, net outline and vehicle size of a run folder."""
     summary = json.loads((run_dir / RUN_MARKER).read_text())
     model = (summary.get("settings") or {}).get("model") or {}
-    traj = pd.read_csv(run_dir / TRAJECTORIES_FILE, dtype={"vehicle": str})
+    traj = pd.read_csv(trajectories_file(run_dir), dtype={"vehicle": str})
     vehicles = pd.read_csv(run_dir / VEHICLES_FILE, dtype={"vehicle": str})
     if (run_dir / GAMES_FILE).is_file():
         games = pd.read_csv(run_dir / GAMES_FILE, dtype={"vehicle_a": str, "vehicle_b": str})

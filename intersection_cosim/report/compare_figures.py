@@ -1,6 +1,6 @@
-"""Figures of a comparison of controllers (``compare``; matplotlib, Agg backend): a metric against
-demand (:func:`metric_vs_demand`) or against a scenario axis such as latency or loss
-(:func:`metric_vs_axis`), one line per controller."""
+"""Figures of a comparison of controllers (``compare``; matplotlib, Agg backend): every metric in one
+small-multiples panel (:func:`overview`), a metric against demand (:func:`metric_vs_demand`) or
+against a scenario axis such as latency or loss (:func:`metric_vs_axis`), one line per controller."""
 
 from __future__ import annotations
 
@@ -17,35 +17,65 @@ import pandas as pd  # noqa: E402
 from intersection_cosim.report.figure_style import LINE_STYLES, TRAJECTORY_MARKERS, save_figure  # noqa: E402
 
 
-def metric_vs_demand(table: pd.DataFrame, metric: str, label: str, out_png: Path) -> Path:
-    """A comparison metric against demand [veh/h], one line per controller (``compare``).
+def _draw_metric(ax, table: pd.DataFrame, metric: str, controllers: list[str]) -> None:
+    """One metric on ``ax``: one line per controller against demand [veh/h], or one bar per
+    controller (grouped by scenario) when all rows share one demand level ("n/a" where not measured)."""
+    cmap = plt.get_cmap("tab10")
+    colour = {c: cmap(i % cmap.N) for i, c in enumerate(controllers)}
+    if table["demand_veh_h"].nunique() > 1:
+        for c in controllers:
+            rows = table[table["controller"] == c].sort_values("demand_veh_h")
+            ax.plot(rows["demand_veh_h"], rows[metric].astype(float), marker="o", color=colour[c], label=c)
+        ax.set_xlabel("demand [veh/h]")
+        return
+    scenarios = list(dict.fromkeys(table["scenario"]))
+    width = 0.8 / max(1, len(controllers))
+    for j, c in enumerate(controllers):
+        values = [table.loc[(table["controller"] == c) & (table["scenario"] == sc), metric].astype(float)
+                  for sc in scenarios]
+        values = [float(v.iloc[0]) if len(v) else np.nan for v in values]
+        x = np.arange(len(scenarios)) + (j - (len(controllers) - 1) / 2) * width
+        bars = ax.bar(x, np.nan_to_num(values, nan=0.0), width=width, color=colour[c], label=c)
+        ax.bar_label(bars, [f"{v:.3g}" if np.isfinite(v) else "n/a" for v in values], fontsize=7)
+    ax.set_xticks(range(len(scenarios)), scenarios, fontsize=8)
 
-    ``table``: comparison.csv's rows (columns demand_veh_h, controller, ``metric``). With a single
-    demand level, one bar per controller instead.
+
+def metric_vs_demand(table: pd.DataFrame, metric: str, label: str, out_png: Path) -> Path:
+    """A comparison metric against demand [veh/h], one line per controller (``compare``; drawn only
+    when the table has two or more demand levels, else :func:`overview` shows it).
+
+    ``table``: comparison.csv's rows (columns scenario, demand_veh_h, controller, ``metric``).
     """
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    controllers = list(dict.fromkeys(table["controller"]))
-    cmap = plt.get_cmap("tab10")
-    demands = sorted(table["demand_veh_h"].unique())
-    if len(demands) <= 1:
-        values = [float(table.loc[table["controller"] == c, metric].iloc[0]) for c in controllers]
-        ax.bar(range(len(controllers)), np.nan_to_num(values, nan=0.0),
-               color=[cmap(i % cmap.N) for i in range(len(controllers))])
-        ax.set_xticks(range(len(controllers)), controllers, rotation=20, ha="right")
-        for i, v in enumerate(values):
-            if not np.isfinite(v):
-                ax.text(i, 0, "n/a", ha="center", va="bottom", fontsize=8)
-        title = f"{label} at {demands[0]:.0f} veh/h" if demands else label
-        ax.set_title(title, fontsize=10)
-    else:
-        for i, c in enumerate(controllers):
-            rows = table[table["controller"] == c].sort_values("demand_veh_h")
-            ax.plot(rows["demand_veh_h"], rows[metric].astype(float), marker="o", color=cmap(i % cmap.N), label=c)
-        ax.set_xlabel("demand [veh/h]")
-        ax.legend(fontsize=8)
+    _draw_metric(ax, table, metric, list(dict.fromkeys(table["controller"])))
+    ax.legend(fontsize=8)
     ax.set_ylabel(label)
     ax.grid(alpha=0.3)
     fig.tight_layout()
+    return save_figure(fig, out_png)
+
+
+def overview(table: pd.DataFrame, metrics: dict[str, str], out_png: Path, title: str) -> Path:
+    """Every metric of ``metrics`` (column -> axis label with its unit) in one small-multiples figure:
+    per panel one line per controller against demand, or bars per controller and scenario when
+    there is one demand level; one legend for all panels."""
+    controllers = list(dict.fromkeys(table["controller"]))
+    cols = 3
+    rows = -(-len(metrics) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows + 0.8), squeeze=False, layout="constrained")
+    for ax, (metric, label) in zip(axes.flat, metrics.items()):
+        _draw_metric(ax, table, metric, controllers)
+        ax.set_title(label, fontsize=9)
+        ax.tick_params(labelsize=8)
+        ax.xaxis.label.set_size(8)
+        ax.grid(alpha=0.3)
+        if metric in ("collisions", "ssm_share_under_thresholds", "deadline_miss_share"):
+            ax.set_ylim(bottom=0)
+    for ax in list(axes.flat)[len(metrics):]:
+        ax.set_visible(False)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(controllers), 6), fontsize=9)
+    fig.suptitle(title, fontsize=11)
     return save_figure(fig, out_png)
 
 

@@ -26,7 +26,7 @@ from intersection_cosim.report.run_figures import trajectory_figure, velocity_fi
 from intersection_cosim.report.solver_figures import compute_time_histogram
 from intersection_cosim.report.sweep_figures import kappa_heatmap, kappa_lines, kappa_tradeoff, metric_label
 from intersection_cosim.results.layout import (COMPARISON_FILE, PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE,
-                                               TRAJECTORIES_FILE, VEHICLES_FILE, run_folder)
+                                               VEHICLES_FILE, run_folder, trajectories_file)
 from intersection_cosim.results.sweep_folder import load_spec, sweep_table
 
 REPORT_FILE = "report.md"
@@ -67,7 +67,7 @@ def write_report(folder: str | Path) -> Path:
 # (name or prefix, header, decimals): decimals None = an integer count; a prefix ends in "_" and the
 # rest of the column name (a vehicle, a pair "V1_V2") goes into the header.
 COLUMN_FORMATS = (
-    ("paper_min_ttc", "min TTC, paper [s]", 2), ("pet", "PET, ours [s]", 2),
+    ("paper_min_ttc", "min TTC, paper [s]", 2), ("time_min_ttc_ssm", "min TTC taken at, SSM [s]", 2), ("pet", "PET, ours [s]", 2),
     ("ratio_paper_min_ttc", "min TTC ratio, paper [-]", 2), ("ratio_min_ttc", "min TTC ratio, ours [-]", 2),
     ("ratio_pet", "PET ratio, ours [-]", 2),
     ("run_id", "run", "text"), ("seed", "seed", "text"), ("exit_lane", "exit lane", "text"),
@@ -87,7 +87,7 @@ COLUMN_FORMATS = (
     ("deferred_step_share", "share of steps with deferred work [-]", 4),
     *((name, f"{name.replace('_', ' ')} [-]", None) for name in (
         "collisions", "arrived", "vehicles", "departed", "deadline_misses", "fallbacks", "control_steps",
-        "game_steps", "seeds", "runs_ok", "ssm_encounters", "late_or_stuck", "ended_early", "steps_with_deferred_work",
+        "game_steps", "seeds", "runs_ok", "ssm_encounters", "ssm_collision_encounters", "late_or_stuck", "ended_early", "steps_with_deferred_work",
         "safety_interventions", "box_rule_clearances", "pedestrian_collisions", "pedestrian_holds", "junction_steps",
         "games")),
     ("junction", "junction", "text"), ("mean_delay", "mean delay [s]", 2),
@@ -177,11 +177,13 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
             png = figs / f"heatmap_{metric}_{x}_{y}.png"
             kappa_heatmap(ok, metric, x, y, png)
             out.append((f"{metric_label(metric)} over {x} and {y}", str(png.relative_to(folder))))
+    at_start = SSM_AT_START if "min_ttc_ssm" in metrics and _ssm_before_control(folder, table) else ""
     for metric in metrics:
         for axis in axes:
             png = figs / f"lines_{metric}_vs_{axis}.png"
             kappa_lines(ok, metric, axis, png)
-            out.append((f"{metric_label(metric)} against {axis}", str(png.relative_to(folder))))
+            out.append((f"{metric_label(metric)} against {axis}" + (at_start if metric == "min_ttc_ssm" else ""),
+                        str(png.relative_to(folder))))
     samples: dict[str, list[np.ndarray]] = {}
     for _, row in ok.iterrows():
         steps = run_folder(folder, row["run_id"]) / STEPS_FILE
@@ -194,6 +196,24 @@ def sweep_figures(folder: Path, table: pd.DataFrame, spec) -> list[tuple[str, st
                                budget_ms=_budget(folder, ok))
     out.append(("compute time per control step", str(png.relative_to(folder))))
     return out
+
+
+SSM_AT_START = (" (in every run taken before the first decision acted: the vehicles' speeds as inserted, "
+                "not a margin the controller kept)")
+
+
+def _ssm_before_control(folder: Path, table: pd.DataFrame) -> bool:
+    """True when every finished run with an SSM min TTC took it at or before its first control
+    step [s] (summary.json ``time_min_ttc_ssm``; steps.csv's first time)."""
+    ok = table[(table["status"] == "ok") & table["min_ttc_ssm"].notna()] if "min_ttc_ssm" in table else table.iloc[0:0]
+    if ok.empty or "time_min_ttc_ssm" not in ok or ok["time_min_ttc_ssm"].isna().any():
+        return False
+    for run_id, at in zip(ok["run_id"], ok["time_min_ttc_ssm"].astype(float)):
+        steps = run_folder(folder, run_id) / STEPS_FILE
+        first = pd.read_csv(steps, nrows=1)["time"] if steps.is_file() else pd.Series(dtype=float)
+        if first.empty or at > float(first.iloc[0]) + 1e-9:
+            return False
+    return True
 
 
 def tradeoff_vehicle(spec) -> str | None:
@@ -236,6 +256,8 @@ def sweep_report(folder: Path) -> Path:
             continue
         best, worst = bw
         note = " (all runs tie)" if best[metric] == worst[metric] else ""
+        if metric == "min_ttc_ssm" and _ssm_before_control(folder, table):
+            note += SSM_AT_START
         rank_rows.append(f"| {label}{note} | `{best['run_id']}` | {_fmt(best[metric], metric)} {unit} | "
                          f"`{worst['run_id']}` | {_fmt(worst[metric], metric)} {unit} |")
     lines += ["| by | best | value | worst | value |", "|---|---|---|---|---|", *rank_rows, "",
@@ -307,7 +329,7 @@ def _junction_section(folder: Path, summary: dict, steps: pd.DataFrame, figs: Pa
 
     net = folder / NET_FILE
     movements = load_movements(net, tuple(network["junctions"]), network["control_range"])
-    traj = pd.read_csv(folder / TRAJECTORIES_FILE, usecols=["vehicle", "path", "speed"], dtype={"vehicle": str})
+    traj = pd.read_csv(trajectories_file(folder), usecols=["vehicle", "path", "speed"], dtype={"vehicle": str})
     v_free = float(settings.get("model", {}).get("v_max", 10.0))  # [m/s]
     table = junction_table(steps, traj, movements, settings["controller"]["period"], v_free)
     figures.append(("junctions coloured by the mean delay of the vehicles that passed them",

@@ -27,7 +27,7 @@ from intersection_cosim.network.build import NET_FILE  # noqa: E402
 from intersection_cosim.network.outline import junction_outlines, read_outline  # noqa: E402
 from intersection_cosim.report.figure_style import LINE_STYLES, TRAJECTORY_MARKERS, save_figure  # noqa: E402
 from intersection_cosim.report.net_drawing import draw_outline  # noqa: E402
-from intersection_cosim.results.layout import RUN_MARKER  # noqa: E402
+from intersection_cosim.results.layout import RUN_MARKER, trajectories_file  # noqa: E402
 
 POINT_INTERVAL = 0.5  # [s] between the trajectory figure's points
 LANE_WIDTH = 4.0  # [m] of the generated net (network/spec.py); used when a run has no net file
@@ -50,7 +50,7 @@ def _vehicle_colours(ids) -> dict[str, tuple]:
 
 
 def _read_run(run_dir: Path) -> tuple[pd.DataFrame, pd.DataFrame | None]:
-    traj = pd.read_csv(Path(run_dir) / "trajectories.csv", dtype={"vehicle": str})
+    traj = pd.read_csv(trajectories_file(run_dir), dtype={"vehicle": str})
     veh_file = Path(run_dir) / "vehicles.csv"
     vehicles = pd.read_csv(veh_file, dtype={"vehicle": str}) if veh_file.is_file() else None
     return traj, vehicles

@@ -3,7 +3,8 @@
 A run folder (written atomically by ``experiments.run``)::
 
     summary.json        counts, metrics, settings and versions; its presence marks a finished run
-    trajectories.csv    TRAJECTORY_COLUMNS, one row per vehicle and control step
+    trajectories.csv    TRAJECTORY_COLUMNS, one row per vehicle and control step (gzip-compressed,
+                        trajectories.csv.gz, in a sweep's or comparison's runs: ``trajectories_file``)
     steps.csv           STEP_COLUMNS, one row per control step
     convergence.csv     CONVERGENCE_COLUMNS (game controllers only)
     games.csv           GAME_COLUMNS, one row per game played (empty for controllers without games)
@@ -28,6 +29,7 @@ from pathlib import Path
 # --- a run folder ------------------------------------------------------------------------------
 RUN_MARKER = "summary.json"  # a folder holding this file is a finished run
 TRAJECTORIES_FILE = "trajectories.csv"
+TRAJECTORIES_GZ = "trajectories.csv.gz"  # the same, gzip-compressed: a sweep's runs (about a tenth the size)
 STEPS_FILE = "steps.csv"
 CONVERGENCE_FILE = "convergence.csv"
 GAMES_FILE = "games.csv"
@@ -62,6 +64,13 @@ TABLE_FILE = "sweep.csv"
 COMPARISON_FILE = "comparison.csv"  # a compare folder's table (one row per scenario and controller)
 RUNS_DIR = "runs"
 FAILED_DIR = "failed"
+
+
+def trajectories_file(run_dir: str | Path) -> Path:
+    """The run's trajectories: ``trajectories.csv``, or ``trajectories.csv.gz`` in a sweep's run
+    (pandas reads either)."""
+    plain = Path(run_dir) / TRAJECTORIES_FILE
+    return plain if plain.is_file() or not (Path(run_dir) / TRAJECTORIES_GZ).is_file() else Path(run_dir) / TRAJECTORIES_GZ
 
 
 def is_finished_run(run_dir: str | Path) -> bool:

@@ -18,7 +18,8 @@ from intersection_cosim.results.overlaps import overlapping_pairs
 
 VEHICLE_COLUMNS = ["vehicle", "approach", "movement", "kappa", "depart", "arrival", "travel_time",
                    "time_loss", "exit_lane", "collided", "driver", "vtype"]
-PAIR_COLUMNS = ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "pet_ssm", "game_steps",
+PAIR_COLUMNS = ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "time_min_ttc_ssm", "pet_ssm",
+                "game_steps",
                 "driver_a", "driver_b", "vtype_a", "vtype_b"]
 
 
@@ -189,7 +190,7 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
                 continue
             (ta, sa, spa), (tb, sb, spb) = tracks[va], tracks[vb]
             ia, ib = _common_times(ta, tb)
-            ttc_ssm, pet_ssm = ssm_min.get((va, vb), (np.nan, np.nan))
+            ttc_ssm, pet_ssm, ttc_ssm_time = ssm_min.get((va, vb), (np.nan, np.nan, np.nan))
             rows.append({"vehicle_a": va, "vehicle_b": vb, "conflict": conflict.kind,
                          "min_ttc": min_ttc_arrays(conflict, sa[ia], spa[ia], sb[ib], spb[ib], model,
                                                    _zone(paths, final_paths.get(va)),
@@ -197,7 +198,7 @@ def pair_table(traj: pd.DataFrame, final_paths: dict[str, str], paths: dict[str,
                                                    (bodies.get(va, own)[0], bodies.get(vb, own)[0]) if bodies else None),
                          "pet": pet_arrays(ta, sa, tb, sb, zones.zone(conflict, bodies.get(va), bodies.get(vb)),
                                            zones.zone(conflict.swapped(), bodies.get(vb), bodies.get(va))),
-                         "min_ttc_ssm": ttc_ssm,
+                         "min_ttc_ssm": ttc_ssm, "time_min_ttc_ssm": ttc_ssm_time,
                          "pet_ssm": pet_ssm, "game_steps": int(game_steps.get((va, vb), 0)),
                          "driver_a": kinds.get(va, ("av", "av"))[0], "driver_b": kinds.get(vb, ("av", "av"))[0],
                          "vtype_a": kinds.get(va, ("av", "av"))[1], "vtype_b": kinds.get(vb, ("av", "av"))[1]})
@@ -225,14 +226,19 @@ def _common_times(ta: np.ndarray, tb: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return ia, ib
 
 
-def _ssm_minima(ssm: pd.DataFrame) -> dict[tuple[str, str], tuple[float, float]]:
+def _ssm_minima(ssm: pd.DataFrame) -> dict[tuple[str, str], tuple[float, float, float]]:
     """(vehicle, vehicle) in sorted order -> the smallest (min_ttc [s], pet [s]) of SUMO's SSM
-    encounters of the two (NaN where none was finite)."""
+    encounters of the two (NaN where none was finite) and the time [s] that min_ttc was taken at."""
     if not len(ssm):
         return {}
     key = ssm.assign(a=ssm[["ego", "foe"]].min(axis=1), b=ssm[["ego", "foe"]].max(axis=1))
+    if "min_ttc_time" not in key:
+        key = key.assign(min_ttc_time=np.nan)
     agg = key.groupby(["a", "b"], sort=False)[["min_ttc", "pet"]].min()
-    return {k: (float(r[0]), float(r[1])) for k, r in zip(agg.index, agg.to_numpy(float))}
+    first = key.sort_values(["min_ttc", "min_ttc_time"], kind="stable").groupby(["a", "b"], sort=False).head(1)
+    at = {(a, b): float(t) if np.isfinite(m) else np.nan
+          for a, b, m, t in zip(first["a"], first["b"], first["min_ttc"].astype(float), first["min_ttc_time"].astype(float))}
+    return {k: (float(r[0]), float(r[1]), at.get(k, np.nan)) for k, r in zip(agg.index, agg.to_numpy(float))}
 
 
 def _zone(paths: dict[str, MovementPath], pid: str | None) -> tuple[float, float] | None:

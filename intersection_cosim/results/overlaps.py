@@ -7,6 +7,7 @@ are dropped first (sorted by x, so the check stays near linear in the number of 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 
@@ -58,12 +59,17 @@ class OverlapLog:
     rows: list[tuple] = field(default_factory=list)  # OVERLAP_COLUMNS
     _now: set[tuple[str, str]] = field(default_factory=set)  # the pairs overlapping at the last check
 
-    def check(self, time: float, ids, x, y, heading, length, width, lanes, commanded) -> None:
+    def check(self, time: float, ids, x, y, heading, length, width, lanes, commanded,
+              junctions: Mapping[str, frozenset[str]] | None = None) -> None:
         """One check at ``time`` [s] of the bodies given (as :func:`overlapping_pairs`), with each
-        vehicle's lane and whether a controller commands it (``commanded`` (n,) bool)."""
+        vehicle's lane and whether a controller commands it (``commanded`` (n,) bool). With
+        ``junctions`` (lane -> the junctions its edge starts and ends at) a pair on lanes with no
+        junction in common is not an overlap: the two roads cross at different levels."""
         i, j = overlapping_pairs(x, y, heading, length, width)
         now = set()
         for a, b in zip(i.tolist(), j.tolist()):
+            if junctions is not None and not junctions.get(lanes[a], frozenset()) & junctions.get(lanes[b], frozenset()):
+                continue
             pair = (ids[a], ids[b]) if ids[a] < ids[b] else (ids[b], ids[a])
             now.add(pair)
             if pair not in self._now:

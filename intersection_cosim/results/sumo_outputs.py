@@ -35,21 +35,34 @@ def read_tripinfo(path: str | Path) -> pd.DataFrame:
                                        "arrival_lane", "vaporized"])
 
 
+SSM_COLUMNS = ["ego", "foe", "min_ttc", "min_ttc_time", "pet", "max_drac", "ssm_collision"]
+# SSM's encounter type "collision": its own gap estimate went to 0 or below (TTC 0). At merges it
+# flags encounters SUMO's collision check does not confirm, so such a TTC is kept out of min_ttc
+# (``ssm_collision`` True) and collisions are counted by SUMO's collision output.
+SSM_COLLISION_TYPE = "111"
+
+
 def read_ssm(path: str | Path) -> pd.DataFrame:
-    """One row per SSM encounter: ego, foe, min_ttc [s], pet [s], max_drac [m/s^2] (NaN if none)."""
+    """One row per SSM encounter: ego, foe, min_ttc [s], the simulation time min_ttc_time [s] it was
+    taken at, pet [s], max_drac [m/s^2] (NaN if none); ``ssm_collision``: SSM classified the
+    encounter as a collision at its min TTC (SSM_COLLISION_TYPE), whose TTC 0 is then left out
+    (NaN)."""
     rows = []
     if not Path(path).exists():
-        return pd.DataFrame(columns=["ego", "foe", "min_ttc", "pet", "max_drac"])
+        return pd.DataFrame(columns=SSM_COLUMNS)
     for _, el in ET.iterparse(path):
         if el.tag == "conflict":
             ttc = el.find("minTTC")
             pet = el.find("PET")
             drac = el.find("maxDRAC")
+            flagged = ttc is not None and ttc.get("type") == SSM_COLLISION_TYPE
             rows.append({"ego": el.get("ego"), "foe": el.get("foe"),
-                         "min_ttc": _float(ttc.get("value")) if ttc is not None else math.nan,
+                         "min_ttc": _float(ttc.get("value")) if ttc is not None and not flagged else math.nan,
+                         "min_ttc_time": _float(ttc.get("time")) if ttc is not None and not flagged else math.nan,
                          "pet": _float(pet.get("value")) if pet is not None else math.nan,
-                         "max_drac": _float(drac.get("value")) if drac is not None else math.nan})
-    return pd.DataFrame(rows, columns=["ego", "foe", "min_ttc", "pet", "max_drac"])
+                         "max_drac": _float(drac.get("value")) if drac is not None else math.nan,
+                         "ssm_collision": flagged})
+    return pd.DataFrame(rows, columns=SSM_COLUMNS)
 
 
 PEDESTRIAN_COLLISIONS = ("crossing", "walkingarea", "sharedLane")  # SUMO's collision types of a vehicle and a person

@@ -105,7 +105,7 @@ class VehicleType:
     table's car-following model.
     """
 
-    id: str
+    id: str  # [-] the type's id, which vehicles and flows name in their vtype key
     length: float | None = None  # [m] bumper to bumper (None: ModelSettings.vehicle_length)
     width: float | None = None  # [m] (None: ModelSettings.vehicle_width)
     accel: float | None = None  # [m/s^2] strongest acceleration; caps its planned a (None: the game's a_max)

@@ -47,7 +47,7 @@ class GuiSettings:
     zoom: float = 350.0  # [%] sumo-gui's zoom: 350 shows ~90 m around the junction in a 900 px view
     centre: tuple[float, float] = (0.0, 0.0)  # [m] view centre in the net (paper) frame: the junction
     window: tuple[int, int] = (1000, 900)  # [px] sumo-gui's window width, height
-    screenshot: str | None = None  # PNG written when the run reaches ``screenshot_at`` (None: none)
+    screenshot: str | None = None  # [-] PNG written when the run reaches ``screenshot_at`` (None: none)
     screenshot_at: float = 0.0  # [s] simulation time of the screenshot
     screenshot_size: tuple[int, int] = (800, 800)  # [px] width, height of the screenshot
 

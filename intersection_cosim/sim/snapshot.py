@@ -5,7 +5,7 @@ managed junctions (for our own collision check, results/overlaps.py)."""
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Mapping, NamedTuple
 
 import libsumo
 import numpy as np
@@ -26,6 +26,7 @@ class Bodies(NamedTuple):
     width: np.ndarray  # [m]
     lanes: list[str]
     commanded: np.ndarray  # bool: under a controller (sim.sumo.SumoSimulation.controlled)
+    junctions: Mapping[str, frozenset[str]]  # lane -> the junctions its edge starts or ends at
 
 
 def watched_lanes(api, movements: Movements) -> frozenset[str]:
@@ -39,8 +40,20 @@ def watched_lanes(api, movements: Movements) -> frozenset[str]:
     return frozenset(lanes)
 
 
-def junction_bodies(sim, watched: frozenset[str]) -> Bodies:
-    """The bodies of every vehicle (whoever drives it) on a lane of ``watched``, as last read."""
+def lane_junctions(api, lanes) -> dict[str, frozenset[str]]:
+    """Per lane of ``lanes``, the junctions its edge starts and ends at (one for an internal
+    lane): two bodies on lanes with no junction in common cannot touch (a bridge over a road
+    draws its lanes across the road's, with no junction between them)."""
+    out = {}
+    for lane in lanes:
+        edge = api.lane.getEdgeID(lane)
+        out[lane] = frozenset((api.edge.getFromJunction(edge), api.edge.getToJunction(edge)))
+    return out
+
+
+def junction_bodies(sim, watched: Mapping[str, frozenset[str]]) -> Bodies:
+    """The bodies of every vehicle (whoever drives it) on a lane of ``watched`` (lane -> its
+    junctions, :func:`lane_junctions`), as last read."""
     ids = [vid for vid, st in sim.states.items() if st[libsumo.VAR_LANE_ID] in watched]
     controlled = sim.controlled()
     n = len(ids)
@@ -49,7 +62,7 @@ def junction_bodies(sim, watched: frozenset[str]) -> Bodies:
     body = np.array([sim.bodies[vid][:2] for vid in ids], float).reshape(n, 2)
     return Bodies(ids, pos[:, 0], pos[:, 1], np.radians(90.0 - angle), body[:, 0], body[:, 1],
                   [sim.states[vid][libsumo.VAR_LANE_ID] for vid in ids],
-                  np.array([vid in controlled for vid in ids], bool))
+                  np.array([vid in controlled for vid in ids], bool), watched)
 
 
 def _offset(from_path, to_path, lane: str) -> float:

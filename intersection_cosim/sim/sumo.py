@@ -31,9 +31,10 @@ from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.sim.backend import LIBSUMO, SumoBackend, sumo_version, traci_backend
 from intersection_cosim.sim.collisions import CollisionRecord, step_collisions
 from intersection_cosim.sim.exit_lanes import arrive_switched, switch_exit_lane
+from intersection_cosim.sim.lane_change_hold import LaneChangeHold
 from intersection_cosim.sim.onboard import OnboardGuard
 from intersection_cosim.sim.people import CrossingPeople
-from intersection_cosim.sim.snapshot import Bodies, junction_bodies, watched_lanes, world_snapshot
+from intersection_cosim.sim.snapshot import Bodies, junction_bodies, lane_junctions, watched_lanes, world_snapshot
 from intersection_cosim.sim.vehicles import VehicleInfo
 
 __all__ = ["LANE_CHANGE_MODE_STRATEGIC", "LIBSUMO", "SumoBackend", "SumoSimulation", "VehicleInfo", "sumo_version",
@@ -92,9 +93,12 @@ class SumoSimulation:
     guard: OnboardGuard | None = None  # made by start() from ``onboard``
     _lane_to_paths: dict[str, list[str]] = field(default_factory=dict)
     _people: CrossingPeople | None = None
-    _watched: frozenset[str] = frozenset()  # the lanes in and around the managed junctions
+    _watched: Mapping[str, frozenset[str]] = field(default_factory=dict)  # the lanes in and around the
+    #   managed junctions, each with the junctions its edge starts and ends at
     _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
+    _hold: LaneChangeHold | None = None  # no lane change with the body in a managed junction (made by start())
+    _ever_taken: set[str] = field(default_factory=set)  # vehicles a controller has taken over
 
     @property
     def paths(self) -> Mapping[str, MovementPath]:
@@ -109,9 +113,12 @@ class SumoSimulation:
         self.backend.start(["-c", sumocfg, "--no-step-log", "true", *(extra or [])])
         self._scale = self._lane_scales()
         self._people = CrossingPeople(self.api, self.crossings) if self.crossings else None
-        self._watched = watched_lanes(self.api, self.movements)
+        self._watched = lane_junctions(self.api, watched_lanes(self.api, self.movements))
         if self.onboard is not None and self.onboard.enabled:
             self.guard = OnboardGuard(self.api, self.onboard, self.step_length)
+        self._hold = LaneChangeHold(frozenset(p.lanes[-1] for p in self.paths.values()),
+                                    frozenset(lane for lane in self._watched if lane.startswith(":")),
+                                    self.lane_change_mode)
 
     def _lane_scales(self) -> dict[str, float]:
         """Per path lane whose SUMO length differs from its shape's length (by ``LENGTH_TOL`` [m]
@@ -195,6 +202,9 @@ class SumoSimulation:
                 self._track_path(vid, self.states[vid][libsumo.VAR_LANE_ID])
         for vid in [vid for vid, junction in self.owner.items() if not self._ownable(vid, junction)]:
             self._release(vid)  # it left its owner's junction: SUMO drives it until another takes it
+        self._ever_taken = {vid for vid in self._ever_taken | self.taken if vid in self.states}
+        if self._hold is not None:
+            self._hold.update(self.api, self.states, self.bodies, self._ever_taken)
 
     def _track_path(self, vid: str, lane: str) -> None:
         """Resolve the vehicle's movement path from its lane and enforce its exit lane.

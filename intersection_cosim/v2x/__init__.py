@@ -1,4 +1,4 @@
-"""Imperfect V2X between the vehicles and the controller (issue 16, parts 3 and 4).
+"""Imperfect V2X between the vehicles and the controller.
 
 A pure layer between ``control`` and ``scenario``: :class:`~intersection_cosim.v2x.channel.Channel`
 turns the World the simulator reads into the World the controller sees (the last message that

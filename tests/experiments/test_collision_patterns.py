@@ -314,3 +314,50 @@ def test_over_v2x_a_vehicle_leaving_a_junction_holds_no_command_of_the_junction_
     run = _short_link(tmp_path, v2x={"latency": 0.2})
     _assert_one_owner(run)
     assert _records(run.collisions) == [], f"SUMO's collisions {_records(run.collisions)}"
+
+
+def _split(folder: Path, link: float) -> Path:
+    """Junction A, then a two-lane link AE of about ``link`` [m] to E: WA enters AE on lane 0
+    only; at E lane 0 goes straight on (EX), lane 1 turns left (EN); a street from the south
+    crosses A (SA -> AN2)."""
+    (folder / "s.nod.xml").write_text(
+        f'<nodes><node id="A" x="0" y="0" type="priority"/><node id="E" x="{link + 10}" y="0" type="priority"/>'
+        f'<node id="W" x="-200" y="0"/><node id="X" x="{link + 160}" y="0"/><node id="N" x="{link + 10}" y="150"/>'
+        '<node id="S" x="0" y="-150"/><node id="N2" x="0" y="150"/></nodes>')
+    (folder / "s.edg.xml").write_text("<edges>" + "".join(
+        f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="13.89"/>'
+        for e, a, b, n in (("WA", "W", "A", 1), ("AE", "A", "E", 2), ("EX", "E", "X", 1), ("EN", "E", "N", 1),
+                           ("SA", "S", "A", 1), ("AN2", "A", "N2", 1))) + "</edges>")
+    (folder / "s.con.xml").write_text("<connections>" + "".join(
+        f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
+        for a, b, i, j in (("WA", "AE", 0, 0), ("AE", "EX", 0, 0), ("AE", "EN", 1, 0), ("SA", "AN2", 0, 0)))
+        + "</connections>")
+    net = folder / "split.net.xml"
+    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "s.nod.xml", "-e", "s.edg.xml", "-x", "s.con.xml",
+                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
+    return net
+
+
+def test_a_vehicle_changes_lanes_only_once_its_body_has_left_the_junction(tmp_path, monkeypatch):
+    """An AV crosses A onto lane 0 of a 15 m link whose lane 1 it needs for its left turn at E:
+    SUMO would change lanes (in one step, a lane width sideways) as soon as its front is on the
+    link, its rear still across A's crossing street. It changes only once its rear is a metre
+    onto the link, and arrives. (SUMO's state of the vehicle is read after every step.)"""
+    net = _split(tmp_path, 15.0)
+    seen = []
+    advance = SumoSimulation.advance
+
+    def recording(sim):
+        advance(sim)
+        st = sim.states.get("v")
+        if st is not None:
+            seen.append((st[libsumo.VAR_LANE_ID], st[libsumo.VAR_LANEPOSITION]))
+
+    monkeypatch.setattr(SumoSimulation, "advance", recording)
+    vehicles = [(0.0, '<vehicle id="v" type="car" depart="0" departSpeed="10"><route edges="WA AE EN"/></vehicle>')]
+    summary, _, collisions = _run(tmp_path, net, _routes(tmp_path, vehicles), 100.0, junctions=("A",))
+    assert summary["counts"]["arrived"] == 1 and _records(collisions) == []
+    on_link = [(lane, pos) for lane, pos in seen if lane.startswith("AE_")]
+    assert on_link[0][0] == "AE_0" and {lane for lane, _ in on_link} == {"AE_0", "AE_1"}
+    first = next(pos for lane, pos in on_link if lane == "AE_1")  # [m] its front when it changed
+    assert first >= LENGTH + 1.0  # its rear a metre onto the link

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from intersection_cosim.cli import main
-from intersection_cosim.experiments.compare import COLUMNS, FIGURE_METRICS, make_specs, markdown_table
+from intersection_cosim.experiments.compare import AXIS_FIGURE_METRICS, COLUMNS, FIGURE_METRICS, make_specs, markdown_table
 from intersection_cosim.experiments.sweep import sweep_jobs
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -63,8 +63,7 @@ def test_compare_low_demand_and_rerun(tmp_path, capsys):
     assert (table["ended_early"] == 0).all()
     assert table["demand_veh_h"].tolist() == pytest.approx([600.0, 600.0])
     assert table["travel_time_mean"].notna().all() and table["compute_ms_median"].notna().all()
-    for metric in FIGURE_METRICS:
-        assert (out / "figures" / f"{metric}_vs_demand.png").stat().st_size > 0
+    assert sorted(p.name for p in (out / "figures").iterdir()) == ["overview.png"]  # one demand level
     report = (out / "report.md").read_text()
     assert "| demand_balanced_low | 600 | fcfs |" in report
     summary = out / "demand_balanced_low" / "runs" / "fcfs-seed1" / "summary.json"
@@ -120,3 +119,27 @@ def test_a_negative_time_loss_is_explained_under_the_table(tmp_path):
     assert "Negative mean time loss (nash (fokr38))" in text and "lane_speed_limits = true" in text
     rows[0]["time_loss_mean"] = 0.1
     assert "Negative mean time loss" not in write_report(tmp_path, pd.DataFrame(rows, columns=COLUMNS), []).read_text()
+
+
+def _table(demands: list[float], latencies: list[float]) -> pd.DataFrame:
+    rows = [{**{c: 1.0 for c in COLUMNS}, "scenario": f"s{d:g}", "demand_veh_h": d, "controller": k, "latency": lat,
+             "travel_time_mean": 10.0 + d / 100 + lat}
+            for d in demands for k in ("nash", "sumo-priority") for lat in latencies]
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("demands, latencies, expected", [
+    ([600.0], [0.0], ["overview.png"]),
+    ([600.0, 1200.0], [0.0], ["overview.png", *(f"{m}_vs_demand.png" for m in FIGURE_METRICS)]),
+    ([600.0], [0.0, 0.2], ["overview.png", *(f"{m}_vs_latency.png" for m in AXIS_FIGURE_METRICS)]),
+])
+def test_compare_draws_an_overview_and_only_the_figures_with_an_axis_to_show(tmp_path, demands, latencies, expected):
+    from intersection_cosim.experiments.compare import draw_figures
+
+    (tmp_path / "figures").mkdir()
+    (tmp_path / "figures" / "travel_time_mean_vs_demand.png").write_bytes(b"an earlier call's")
+    axes = ["latency"] if len(latencies) > 1 else []
+    table = _table(demands, latencies).drop(columns=[] if axes else ["latency"])
+    drawn = draw_figures(tmp_path, table, axes)
+    assert sorted(p.name for p in drawn) == sorted(expected)
+    assert sorted(p.name for p in (tmp_path / "figures").iterdir()) == sorted(expected)

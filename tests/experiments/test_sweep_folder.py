@@ -15,7 +15,7 @@ def test_a_finished_sweep_leaves_no_lock_file(tmp_path, capsys):
     """One SUMO run (about 2 s)."""
     out = tmp_path / "sweep"
     assert main(["sweep", CASE1A, "--out", str(out), *ARGS]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["runs", "sweep.csv", "sweep.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["runs", "sweep.csv", "sweep.json", "units.csv"]
     assert main(["sweep", CASE1A, "--out", str(out), *ARGS]) == 0  # rerun: skipped, still no lock
     assert "1/1 runs finished (1 already before)" in capsys.readouterr().out
     assert not (out / LOCK_FILE).exists()

@@ -38,6 +38,9 @@ def test_sweep_table(reference_sweep):
                 "compute_ms_p95", "deadline_misses"]:
         assert col in table, col
     assert (table["status"] == "ok").all()
+    for run_id in RUN_IDS:  # a sweep's trajectories gzip-compressed: most of a run folder's bytes
+        files = {p.name for p in (reference_sweep / RUNS_DIR / run_id).iterdir()}
+        assert "trajectories.csv.gz" in files and "trajectories.csv" not in files
     assert list(table["kappa_V1"]) == [0.3, 0.3, 0.7, 0.7]
     assert list(table["kappa_V2"]) == [0.2, 0.5, 0.2, 0.5]
     # The values are the run folders' own.

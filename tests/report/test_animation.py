@@ -134,3 +134,16 @@ def test_a_run_on_a_net_file_is_drawn_around_its_junction(tmp_path):
             coloured = max(coloured, sum(_pixels(frame, kappa_color(x)) for x in np.linspace(0.2, 0.8, 7)))
     assert min(counts) > 15_000  # [px] the roads cross the 800 x 720 frame (an empty field has none)
     assert coloured > 100  # some frame shows a controlled vehicle's body
+
+
+def test_a_sweep_run_with_compressed_trajectories_is_animated(short_run, tmp_path):
+    import gzip
+    import shutil
+
+    run = tmp_path / "sweep_run"
+    shutil.copytree(short_run, run, ignore=shutil.ignore_patterns("animation.gif"))
+    plain = run / "trajectories.csv"
+    (run / "trajectories.csv.gz").write_bytes(gzip.compress(plain.read_bytes()))
+    plain.unlink()
+    assert main(["animate", str(run), "--fps", "40"]) == 0
+    assert Image.open(run / "animation.gif").n_frames > 1

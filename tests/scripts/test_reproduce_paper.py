@@ -86,3 +86,75 @@ def test_the_convergence_figure_reads_the_tolerance_from_the_run_else_the_defaul
     recorded = {"controller_settings": {"solver": {"stackelberg_tol": 0.005, "nash_cost_guard": 0.2}}}
     (run / "summary.json").write_text(json.dumps({"settings": recorded}))
     assert rp.stopping_rule(runs, "case1_A", "stackelberg") == {"tol": 0.005, "guard": 0.2, "rtol": 1e-3}
+
+
+def _steps(runs, case: str, ctrl: str, etm: bool, compute_ms: list[float], games: list[int]) -> None:
+    run = runs.dir(case, ctrl, etm)
+    run.mkdir(parents=True)
+    n = len(compute_ms)
+    import pandas as pd
+
+    pd.DataFrame({"time": [0.05 + 0.1 * i for i in range(n)], "compute_ms": compute_ms, "games": games,
+                  "qp_solves": [2 * g + 1 for g in games]}).to_csv(run / "steps.csv", index=False)
+
+
+def _etm_runs(rp, tmp_path):
+    """case1_A: the trigger fires for every game; case2_A: it leaves half out, NE cuts 50 %, SE 20 %;
+    every run's first step (the warm-up) takes 100 ms."""
+    runs = rp.Runs(tmp_path)
+    for ctrl in ("nash", "stackelberg"):
+        _steps(runs, "case1_A", ctrl, True, [100.0, 2.0, 2.0, 2.0, 2.0], [1, 1, 1, 1, 1])
+        _steps(runs, "case1_A", ctrl, False, [100.0, 2.0, 2.0, 2.0, 2.0], [1, 1, 1, 1, 1])
+        _steps(runs, "case2_A", ctrl, False, [100.0, 4.0, 4.0, 4.0, 4.0], [2, 2, 2, 2, 2])
+    _steps(runs, "case2_A", "nash", True, [100.0, 2.0, 2.0, 2.0, 2.0], [1, 1, 1, 1, 1])
+    _steps(runs, "case2_A", "stackelberg", True, [100.0, 3.2, 3.2, 3.2, 3.2], [1, 1, 1, 1, 1])
+    return runs
+
+
+def test_check_9_is_measured_where_the_trigger_has_games_to_leave_out_else_not_applicable(rp, tmp_path):
+    runs = _etm_runs(rp, tmp_path)
+    nine = rp.orderings(runs, rp.QUICK, []).query("check == 9")
+    nine = nine.set_index([nine["solver"], nine["description"].str[:7]])
+    assert list(nine["holds"]) == ["n/a", "n/a", True, False]
+    for (solver, case), row in nine.iterrows():
+        if case == "case1_A":  # the trigger left nothing out: the reason, not a verdict
+            assert row["values"].startswith("not applicable: the trigger fired for 4 of the 4 games")
+        else:
+            assert "games 4 vs 8 (left out 50%)" in row["values"]
+    assert "cut 50.0%" in nine.loc[("NE", "case2_A"), "values"] and "cut 20.0%" in nine.loc[("SE", "case2_A"), "values"]
+
+
+def test_the_checks_and_the_compute_time_figure_give_one_mean_without_the_warm_up(rp, tmp_path, monkeypatch):
+    runs = _etm_runs(rp, tmp_path)
+    drawn = {}
+
+    def capture(ax, samples, styles=None, extra=None):
+        drawn.update({(ax.get_title() or str(len(drawn)), k): float(v.mean()) for k, v in samples.items()})
+        return {}
+
+    monkeypatch.setattr(rp, "draw_ecdf", capture)
+    rp.compute_time_figure(runs, rp.QUICK, tmp_path / "compute_time.png")
+    assert sorted(set(drawn.values())) == [2.0, 3.2, 4.0]  # [ms] the 100 ms warm-up left out
+    values = " ".join(rp.orderings(runs, rp.QUICK, []).query("check == 9")["values"])
+    assert "compute per step 2.00 ms with the ETM, 4.00 ms without" in values
+    assert "compute per step 3.20 ms with the ETM, 4.00 ms without" in values and "100" not in values
+
+
+def test_the_runs_show_a_progress_bar_with_the_time_left(rp, tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(rp, "play", lambda out, case, ctrl, etm, *rest: (rp.run_name(case, ctrl, etm), "ran", None))
+    assert rp.play_all(tmp_path, ["case1_A"], 1, 2000.0) == {}
+    captured = capsys.readouterr()
+    assert captured.out.count(": ran\n") == 4
+    bar = captured.err.replace("\r", "\n").splitlines()[-1]
+    assert "4/4" in bar and "<" in bar  # tqdm: done/total [elapsed<left]
+
+
+def test_every_table_the_report_writes_declares_its_units(rp, tmp_path):
+    from intersection_cosim.results.units import units_table
+    from tests.results.test_units import assert_declared
+
+    runs = _etm_runs(rp, tmp_path)
+    tables = {"table_ii.csv": rp.ttc_table(runs, rp.SCENARIOS, "case1"), "table_iv.csv": rp.ttc_table(runs, rp.SCENARIOS, "case2"),
+              "ratios.csv": rp.ratio_table(runs, rp.SCENARIOS), "travel_times.csv": rp.travel_times(runs, rp.SCENARIOS),
+              "orderings.csv": rp.orderings(runs, rp.QUICK, [])}
+    assert_declared(units_table({name: df.columns for name, df in tables.items()}))

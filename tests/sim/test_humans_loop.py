@@ -85,7 +85,7 @@ def test_high_mixed_demand_drains(tmp_path):
     collisions. Before the filter held AVs at their stop lines for a human braking to stop in their
     crossing, this window locked at about 200 s (108 of 162 arrived): an AV that entered stopped
     inside the junction short of a left-turning human standing at SUMO's internal stop point, in
-    the crossing of the opposing stream that human waits for (docs/design.md)."""
+    the crossing of the opposing stream that human waits for (decision record 006)."""
     scn = load_scenario("scenarios/demand_balanced_high.toml")
     scn = dataclasses.replace(scn, flows=tuple(dataclasses.replace(f, av_share=0.5) for f in scn.flows),
                               scenario=dataclasses.replace(scn.scenario, duration=300.0))

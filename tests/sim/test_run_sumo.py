@@ -40,7 +40,7 @@ def test_csv_columns(case1a_run):
     assert cols["trajectories.csv"][:9] == ["time", "vehicle", "x", "y", "speed", "accel", "heading", "lane", "role"]
     assert cols["vehicles.csv"] == ["vehicle", "approach", "movement", "kappa", "depart", "arrival",
                                     "travel_time", "time_loss", "exit_lane", "collided", "driver", "vtype"]
-    assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm",
+    assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "time_min_ttc_ssm",
                                  "pet_ssm", "game_steps", "driver_a", "driver_b", "vtype_a", "vtype_b"]
     assert cols["steps.csv"] == ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback",
                                      "deferred", "qp_solves", "junction", "skipped"]
@@ -117,3 +117,12 @@ def test_case2_v4_starts_inside_the_junction(tmp_path):
     # desired_speed = 5 m/s: SUMO drives V4 no faster (the others reach the model's 10 m/s)
     top = traj.groupby("vehicle")["speed"].max()
     assert top["V4"] <= 5.0 + 1e-6 and top.drop("V4").max() > 9.0
+
+
+def test_units_csv_declares_every_column_of_every_csv(case1a_run):
+    from intersection_cosim.results.units import csv_columns
+    from tests.results.test_units import assert_declared
+
+    units = pd.read_csv(case1a_run / "units.csv", keep_default_na=False)
+    assert units.groupby("file", sort=False)["column"].apply(list).to_dict() == csv_columns(case1a_run)
+    assert_declared(units)

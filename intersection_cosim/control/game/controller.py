@@ -328,9 +328,7 @@ class GameController:
         vehicles of the pair are in the junction (the entry queue) and one of them is slower than
         ``SafetySettings.clear_speed`` [m/s] (the filter may raise it again). Forcing the game on
         for such a pair let two vehicles in the box plan to crawl for each other (J_lat a few
-        metres apart), which locked demand_balanced_high (stackelberg, seed 7, 300 s: 40 of 123
-        arrived with game_gap_share 0.4; with the event alone 13 vehicles stood in the box at
-        150 s; docs/design.md, issue 20 round 3)."""
+        metres apart), which locked a high-demand run (decision record 024)."""
         return self._in_force(world, self._events)
 
     def _in_force(self, world: World, pairs) -> set[tuple[str, str]]:

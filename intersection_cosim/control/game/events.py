@@ -22,8 +22,8 @@ def in_force(world: World, pairs: Iterable[tuple[str, str]], entered, stall_held
     (``entered``, the entry queue) with one of them slower than ``clear_speed`` [m/s]
     (SafetySettings.clear_speed), and those with a vehicle the safety filter's last step held at
     its stop line for a stalled box (``stall_held``, SafetySettings.stalled_box_hold): it must wait
-    whatever the game says, so the game only cost QPs (in a jam a third of them: 174 a step
-    against 116, 60 s of bench_scale's 80-vehicle level, docs/design.md, issue 20 round 9)."""
+    whatever the game says, so the game only cost QPs (in a jam about a third of them; decision
+    record 025)."""
     index = {vid: k for k, vid in enumerate(world.ids)}
     slow = clear_speed  # [m/s]
     stall = stall_held

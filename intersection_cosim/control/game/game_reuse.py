@@ -8,7 +8,7 @@ period later when nothing the game depends on moved: both players are where thei
 game is predicted where it was (within ``solo_leader_tol``). Such a game is not solved again, at
 most ``game_resolve_steps`` - 1 steps in a row; its plans restart from the measured states.
 
-Three more conditions keep the decisions (docs/design.md has the measurements):
+Three more conditions keep the decisions (decision record 010 has the measurements):
 
 * only a solve that converged in its first iteration is kept: its warm start, the equilibrium of
   the step before, already was one, so the game is steady; a game still moving may switch

@@ -1,6 +1,6 @@
 """Settings of the game controller beyond the game itself: its policy (re-planning, lane choice,
 the anytime schedule), a typed frozen object with documented defaults set from the scenario table
-``[controller.policy]``; its safety filter's settings are control/settings.py's SafetySettings.
+``[controller.policy]``; its safety filter's settings are control/safety/settings.py's SafetySettings.
 
 :class:`GameControllerSettings` gathers the four tables of the ``nash`` and ``stackelberg``
 controllers: ``[controller.game]`` (the game problem), ``[controller.solver]``,
@@ -33,8 +33,7 @@ class PolicySettings:
     # its own equilibrium of the last step (Nash best-response rounds, Stackelberg leader steps;
     # 0: only the solver's caps): an unconverged game applies its last iterate and goes on from
     # it at the next step, the real-time iteration of solo_max_iter. A pair's first solve, and
-    # one after a pause, runs in full. 1 cut the 95th percentile of a step at 1800 veh/h by
-    # 11-13 % with travel times and collisions unchanged (docs/design.md, issue 18, tenth part)
+    # one after a pause, runs in full (decision record 018)
     game_max_iter: int = 1
     solo_leader_tol: float = 0.1  # [m] and [m/s]: a solo vehicle solves again when its leader's
     #                               predicted positions (speeds) moved more than this since its solve
@@ -54,26 +53,22 @@ class PolicySettings:
     # control step on until the crossing is passed, whatever Gamma_cp says (an event of the ETM,
     # Eq. 39, beside Gamma_cp > Gamma_sf): the game, not the filter, then sets its margin; the
     # event ends once both are in the junction and one is below SafetySettings.clear_speed.
-    # With game_gap_share 0.4 it hands Case 1 D's margin to the aggressive pair's game (D/A 0.5
-    # by min TTC); it costs the trigger its saving in Case 1 A (docs/design.md, issue 20 round 8);
-    # safe at 1800 veh/h with SafetySettings.stalled_box_hold (round 9)
+    # With game_gap_share it hands Case 1 D's margin to the aggressive pair's game; it costs the
+    # trigger its saving in Case 1 A (decision records 024, 025)
     filter_event: bool = True
     # [s] hysteresis of the ETM (Eq. 39): a pair that played its game keeps playing at the next
     # step while neither has passed its conflict point and their times to it (TCP, Eqs. 21-22)
     # differ by less than this, whatever Gamma_cp says; it ends once both are in the junction and
     # one is below SafetySettings.clear_speed (0: off, the ETM alone). Without it a cautious
     # yielder that slowed for its game leaves its own preview t_p^i (TCP > t_p^i: Gamma_cp = 0),
-    # plans alone, speeds up, fires the ETM again and brakes, every other step (Case 1 B: V2 at
-    # about 3 m/s instead of falling to 2.4 m/s; min TTC to V1 3.15 s, with 6 s 4.02 s). It plays
-    # about 30 % more games at 1800 veh/h, so the 95th percentile of a step rises by 8-20 %
-    # (docs/design.md, issue 20 rounds 5 and 8, "A gridlock of three")
+    # plans alone, speeds up, fires the ETM again and brakes, every other step. It keeps more
+    # games in play at high demand, which costs compute (decision records 021, 027)
     trigger_hold_gap: float = 6.0
     anytime_reserve: float = 0.1  # [-] share of the step budget kept for the safety filter (at
     #                               least twice its measured mean time): games and solo solves that
     #                               would not finish before the rest of the budget are deferred
-    #                               (their vehicles keep their last plan, shifted). 0.1 leaves 2 ms
-    #                               of a 20 ms budget; the filter's 99.9th percentile at 1800 veh/h
-    #                               is 1.2-2.6 ms (docs/design.md, issue 18, sixth part)
+    #                               (their vehicles keep their last plan, shifted); see decision
+    #                               record 012
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")

@@ -22,7 +22,7 @@ class SafetySettings:
     # catches what the game misses
     game_gap_share: float = 0.4
     margin: float = 1.0  # [m] a vehicle stops this far before a crossing zone and behind its leader
-    yield_order: str = "tcp"  # who ranks first at a crossing among vehicles not yet in the
+    yield_order: str = "tcp"  # [-] who ranks first at a crossing among vehicles not yet in the
     #                          junction: "tcp" = smaller time to the crossing at the current speed
     #                          (the paper's leader rule, Section IV-D; a pair that played its game
     #                          keeps the game's order, by its plans), "plan" = earlier arrival by
