@@ -1,28 +1,32 @@
-"""Network benchmark (issue 17 item 4): compute per control step summed over the junctions'
-controllers, per junction, against the number of vehicles in the network, and what running the
-junctions' controllers in parallel on 2 cores would give.
+"""Network benchmark: a whole net under a game controller against SUMO alone, measured.
 
-Runs the shipped 3 x 3 grid (``scenarios/grid_{low,medium,high}.toml``, one controller per
-junction, nine junctions) with ``--controller`` for ``--duration`` s of demand (no drain), or
-reads finished run folders given with ``--runs``. From each run's steps.csv (one row per junction
-and control step) and trajectories.csv (one row per vehicle on a managed path and step):
+For each scenario (default: the shipped ``grid_high``, nine junctions, and ``corridor_medium``,
+three; any scenario file given instead, e.g. a RESCO cut) it runs the scenario under
+``--controller`` (default ``nash``) and under ``sumo-priority`` (SUMO drives, signals as the
+scenario says), each run in a fresh process of its own, SUMO's SSM device off (``[scenario]
+ssm = false``: an output device, not the simulation), alternating controller and SUMO
+``--repeats`` times, so the machine's load falls on both alike. Per scenario it prints:
 
-* ``levels``: per run, median and p95 of the step's compute summed over the junctions [ms], the
-  median per junction [ms] (``per_junction_ms``), and the median number of vehicles in the World
-  (on a managed junction's paths) per step;
-* ``bins``: steps binned by vehicles in the World (bins of ``--bin`` vehicles): median summed
-  compute [ms] and median per junction-step [ms];
-* ``parallel``: the ideal 2-process step time, per step the larger of the two halves of a
-  greedy split of the junctions' compute (largest first to the lighter worker, the split a
-  scheduler could make with hindsight), plus the inter-process cost measured here: a round trip
-  of one junction's pickled sub-World and Decisions through a ``multiprocessing.Pipe``
-  (``ipc_roundtrip_ms``, median of 300), paid once per junction and step by the main process
-  (the sub-Worlds go out and the Decisions come back through it). ``speedup`` = serial median /
-  parallel median. A thread pool gives nothing: the controllers are Python-heavy (the GIL).
+* ``wall_ratio``: median wall time of the controller's whole runs (setup, closed loop, outputs)
+  over the median of SUMO's; the closed loop's ratio alone (``loop_ratio``: the runs' wall time
+  less setup and outputs); and ``cpu_ratio`` and ``loop_cpu_ratio``, the same for the process's
+  CPU time (on a machine others load too, less noisy than the wall time);
+* the controller's step: median and p95 over the control steps of the compute summed over the
+  junctions [ms] (steps.csv's ``compute_ms``);
+* ``skipped_share``: the share of junction-steps whose controller had nothing to decide and was
+  not called (steps.csv's ``skipped``);
+* ``parallel_ideal``: the speed-up of the summed compute that ``--workers`` workers would give
+  with no overhead, per step the largest load of a largest-first split of the junctions'
+  compute (a bound from the measured per-junction times: the junctions run one after another);
+* collisions and arrivals of both runs (summary.json's counts), to see that the controller's
+  run is the one a change must not alter. The step budget is a wall-clock one: where it binds
+  (the anytime schedule cuts a step's iterations), the decisions depend on the machine's load;
+  ``--budget-ms 2000`` makes them the same run to run (behaviour_fingerprint.py's budget).
 
 A table goes to stderr; the last line of stdout is one JSON object.
 
-    python scripts/bench_network.py [--duration 300] [--controller nash] [--runs DIR ...]
+    python scripts/bench_network.py [SCENARIO.toml ...] [--controller nash] [--repeats 1]
+        [--duration S] [--drain S] [--workers 2] [--budget-ms MS]
 """
 
 from __future__ import annotations
@@ -30,8 +34,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import multiprocessing as mp
-import pickle
+import subprocess
 import sys
 import tempfile
 import time
@@ -41,115 +44,125 @@ import numpy as np
 import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
-LEVELS = ("low", "medium", "high")
+DEFAULTS = (ROOT / "scenarios" / "grid_high.toml", ROOT / "scenarios" / "corridor_medium.toml")
+BASELINE = "sumo-priority"
 
 
-def _run(level: str, controller: str, duration: float, out: Path) -> Path:
+def one_run(scenario: Path, controller: str, out: Path, duration: float | None, drain: float | None,
+            budget_ms: float | None = None) -> dict:
+    """Run ``scenario`` under ``controller`` into ``out`` (SSM off); its wall times [s] and counts."""
+    from intersection_cosim.experiments import closed_loop
     from intersection_cosim.experiments.run import run_scenario
     from intersection_cosim.scenario import load_scenario, with_overrides
 
-    scn = with_overrides(load_scenario(ROOT / "scenarios" / f"grid_{level}.toml"), controller=controller)
-    scn = dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, duration=duration, drain=0.0))
-    run_scenario(scn, out / level)
-    return out / level
+    scn = with_overrides(load_scenario(scenario), controller=controller, budget_ms=budget_ms)
+    s = scn.scenario
+    scn = dataclasses.replace(scn, scenario=dataclasses.replace(
+        s, ssm=False, duration=s.duration if duration is None else duration, drain=s.drain if drain is None else drain))
+    loop = []
+    inner = closed_loop._closed_loop
+
+    def timed(*args, **kwargs):
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            loop.extend((time.perf_counter() - t0, time.process_time() - c0))
+
+    closed_loop._closed_loop = timed
+    t0, c0 = time.perf_counter(), time.process_time()
+    summary = run_scenario(scn, out)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    counts = summary.get("counts", {})
+    return {"wall_s": wall, "cpu_s": cpu, "loop_s": loop[0], "loop_cpu_s": loop[1], "collisions": counts.get("collisions"), "arrived": counts.get("arrived")}
 
 
-def _tables(run: Path) -> tuple[pd.DataFrame, pd.Series]:
-    steps = pd.read_csv(run / "steps.csv")
-    traj = pd.read_csv(run / "trajectories.csv", usecols=["time", "vehicle"])
-    vehicles = traj.groupby("time").size()
-    return steps, vehicles
+def _spawn(scenario: Path, controller: str, out: Path, args) -> dict:
+    """:func:`one_run` in a fresh process (libsumo runs one simulation per process)."""
+    cmd = [sys.executable, __file__, "--one", str(scenario), "--controller", controller, "--out", str(out)]
+    for name in ("duration", "drain", "budget_ms"):
+        if getattr(args, name) is not None:
+            cmd += [f"--{name.replace('_', '-')}", str(getattr(args, name))]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.stderr.write(done.stderr[-4000:])
+        raise SystemExit(f"bench_network: the {controller} run of {scenario} failed")
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def _greedy_two(loads: np.ndarray) -> float:
-    """[ms] the larger half of a largest-first split of ``loads`` over two workers."""
-    a = b = 0.0
+def largest_first(loads: np.ndarray, workers: int) -> float:
+    """[ms] the largest worker's load of a largest-first split of ``loads`` [ms] over ``workers``."""
+    bins = [0.0] * workers
     for x in sorted(loads, reverse=True):
-        if a <= b:
-            a += x
-        else:
-            b += x
-    return max(a, b)
+        bins[bins.index(min(bins))] += x
+    return max(bins)
 
 
-def _ipc_roundtrip_ms(run: Path) -> float:
-    """[ms] median round trip of a typical junction sub-World (as pickled arrays) and its
-    Decisions through a Pipe to a child process."""
-    traj = pd.read_csv(run / "trajectories.csv")
-    per_step = traj.groupby("time").size()
-    t = per_step.index[int(np.argmin(np.abs(per_step.to_numpy() - per_step.median())))]
-    rows = traj[traj["time"] == t]
-    n = max(1, len(rows) // 9)  # one junction's share
-    sub = {c: rows[c].to_numpy()[:n] for c in ("x", "y", "speed", "accel", "heading", "s")}
-    sub["ids"] = list(rows["vehicle"].astype(str))[:n]
-    sub["paths"] = list(rows["path"].astype(str))[:n]
-    reply = {"accel": {vid: 0.5 for vid in sub["ids"]}, "exit_lane": {}, "release": []}
-    parent, child = mp.Pipe()
-    proc = mp.Process(target=_echo, args=(child, pickle.dumps(reply)))
-    proc.start()
-    times = []
-    for _ in range(300):
-        t0 = time.perf_counter()
-        parent.send_bytes(pickle.dumps(sub))
-        pickle.loads(parent.recv_bytes())
-        times.append(time.perf_counter() - t0)
-    parent.send_bytes(b"")
-    proc.join()
-    return float(np.median(times) * 1e3)
+def step_stats(run: Path, workers: int) -> dict:
+    """The controller's steps of ``run``: summed compute median / p95 [ms], skipped share,
+    and the ideal parallel speed-up over ``workers``."""
+    steps = pd.read_csv(run / "steps.csv")
+    summed = steps.groupby("time", sort=False)["compute_ms"].sum()
+    wide = steps.pivot_table(index="time", columns="junction", values="compute_ms", aggfunc="sum").fillna(0.0)
+    parallel = np.array([largest_first(row, workers) for row in wide.to_numpy(float)])
+    total = float(wide.to_numpy().sum())
+    return {"steps": int(len(summed)), "junctions": int(steps["junction"].nunique()),
+            "step_ms_median": float(summed.median()), "step_ms_p95": float(summed.quantile(0.95)),
+            "skipped_share": float(steps["skipped"].mean()) if "skipped" in steps else 0.0,
+            "parallel_ideal": total / float(parallel.sum()) if parallel.sum() > 0 else 1.0}
 
 
-def _echo(conn, reply: bytes) -> None:
-    while True:
-        msg = conn.recv_bytes()
-        if not msg:
-            return
-        pickle.loads(msg)
-        conn.send_bytes(reply)
+def bench(scenario: Path, args, tmp: Path) -> dict:
+    """Alternate controller and SUMO runs of ``scenario``; the measured ratios and step stats."""
+    runs: dict[str, list[dict]] = {args.controller: [], BASELINE: []}
+    for r in range(args.repeats):
+        order = (args.controller, BASELINE) if r % 2 == 0 else (BASELINE, args.controller)
+        for kind in order:
+            out = tmp / f"{scenario.stem}-{kind}-{r}"
+            runs[kind].append({**_spawn(scenario, kind, out, args), "out": str(out)})
+            print(f"  {scenario.stem} {kind} #{r}: {runs[kind][-1]['wall_s']:.1f} s", file=sys.stderr)
+    ctrl, base = runs[args.controller], runs[BASELINE]
+    med = {k: {f: float(np.median([x[f] for x in v])) for f in ("wall_s", "cpu_s", "loop_s", "loop_cpu_s")}
+           for k, v in runs.items()}
+    return {"scenario": str(scenario), "runs": runs,
+            "wall_ratio": med[args.controller]["wall_s"] / med[BASELINE]["wall_s"],
+            "cpu_ratio": med[args.controller]["cpu_s"] / med[BASELINE]["cpu_s"],
+            "loop_ratio": med[args.controller]["loop_s"] / med[BASELINE]["loop_s"],
+            "loop_cpu_ratio": med[args.controller]["loop_cpu_s"] / med[BASELINE]["loop_cpu_s"],
+            "controller_wall_s": med[args.controller]["wall_s"], "sumo_wall_s": med[BASELINE]["wall_s"],
+            **step_stats(Path(ctrl[-1]["out"]), args.workers),
+            "collisions": [ctrl[-1]["collisions"], base[-1]["collisions"]],
+            "arrived": [ctrl[-1]["arrived"], base[-1]["arrived"]]}
 
 
-def main(argv: list[str] | None = None) -> dict:
+def main(argv: list[str] | None = None) -> dict | None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--duration", type=float, default=300.0, help="[s] demand window of each grid run")
+    ap.add_argument("scenarios", nargs="*", type=Path, help="scenario files (default: grid_high, corridor_medium)")
     ap.add_argument("--controller", default="nash")
-    ap.add_argument("--runs", nargs="*", type=Path, help="finished run folders to read instead of running")
-    ap.add_argument("--bin", type=int, default=20, help="[vehicles] width of the vehicle-count bins")
+    ap.add_argument("--repeats", type=int, default=1, help="runs of each controller, alternated")
+    ap.add_argument("--duration", type=float, help="[s] demand window (default: the scenario's)")
+    ap.add_argument("--drain", type=float, help="[s] drain after it (default: the scenario's)")
+    ap.add_argument("--workers", type=int, default=2, help="workers of the ideal parallel split")
+    ap.add_argument("--budget-ms", type=float, help="[ms] step budget per junction (default: the scenario's; "
+                    "a wall-clock budget that binds makes the decisions depend on the machine's load)")
+    ap.add_argument("--one", type=Path, help=argparse.SUPPRESS)
+    ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    if args.runs:
-        runs = {"/".join(p.parts[-3:]): p for p in args.runs}  # scenario/runs/run id of a sweep folder
-    else:
-        out = Path(tempfile.mkdtemp(prefix="bench_network-"))
-        runs = {lv: _run(lv, args.controller, args.duration, out) for lv in LEVELS}
-    levels, frames = {}, []
-    for name, run in runs.items():
-        steps, vehicles = _tables(run)
-        summed = steps.groupby("time")["compute_ms"].sum()
-        per_j = steps.groupby("junction")["compute_ms"].median()
-        wide = steps.pivot_table(index="time", columns="junction", values="compute_ms", aggfunc="sum")
-        parallel = wide.apply(lambda r: _greedy_two(r.to_numpy(float)), axis=1)
-        levels[name] = {"steps": int(len(summed)), "junctions": int(steps["junction"].nunique()),
-                        "vehicles_median": float(vehicles.reindex(summed.index).fillna(0).median()),
-                        "summed_ms_median": float(summed.median()), "summed_ms_p95": float(summed.quantile(0.95)),
-                        "per_junction_ms": {str(j): round(float(v), 4) for j, v in per_j.items()},
-                        "two_process_ideal_ms_median": float(parallel.median())}
-        frames.append(pd.DataFrame({"n": vehicles.reindex(summed.index).fillna(0).to_numpy(),
-                                    "summed": summed.to_numpy(),
-                                    "per_junction": summed.to_numpy() / steps["junction"].nunique()}))
-    allsteps = pd.concat(frames)
-    allsteps["bin"] = (allsteps["n"] // args.bin * args.bin).astype(int)
-    bins = [{"vehicles": int(b), "steps": int(len(g)), "summed_ms_median": float(g["summed"].median()),
-             "per_junction_ms_median": float(g["per_junction"].median())}
-            for b, g in allsteps.groupby("bin")]
-    ipc = _ipc_roundtrip_ms(next(iter(runs.values())))
-    for lv in levels.values():
-        par = lv["two_process_ideal_ms_median"] + ipc * lv["junctions"]
-        lv["two_process_with_ipc_ms_median"] = par
-        lv["speedup_two_processes"] = lv["summed_ms_median"] / par if par > 0 else None
-    result = {"benchmark": "bench_network", "controller": args.controller, "ipc_roundtrip_ms": ipc,
-              "levels": levels, "bins": bins}
-    print(f"{'run':>36} {'veh':>5} {'sum ms':>8} {'p95 ms':>8} {'2-proc ms':>9} {'speedup':>7}", file=sys.stderr)
-    for name, lv in levels.items():
-        print(f"{name:>36} {lv['vehicles_median']:5.0f} {lv['summed_ms_median']:8.2f} {lv['summed_ms_p95']:8.2f} "
-              f"{lv['two_process_with_ipc_ms_median']:9.2f} {lv['speedup_two_processes']:7.2f}", file=sys.stderr)
+    if args.one is not None:
+        print(json.dumps(one_run(args.one, args.controller, args.out, args.duration, args.drain, args.budget_ms)))
+        return None
+    tmp = Path(tempfile.mkdtemp(prefix="bench_network-"))
+    results = [bench(sc.resolve(), args, tmp) for sc in (args.scenarios or DEFAULTS)]
+    print(f"{'scenario':>18} {'junc':>4} {'ctrl s':>8} {'sumo s':>8} {'ratio':>6} {'cpu':>6} {'loop':>6} {'med ms':>7} "
+          f"{'p95 ms':>7} {'skipped':>7} {'par':>5} {'coll c/s':>9} {'arr c/s':>11}", file=sys.stderr)
+    for r in results:
+        print(f"{Path(r['scenario']).stem:>18} {r['junctions']:4d} {r['controller_wall_s']:8.1f} "
+              f"{r['sumo_wall_s']:8.1f} {r['wall_ratio']:6.2f} {r['cpu_ratio']:6.2f} {r['loop_ratio']:6.2f} {r['step_ms_median']:7.2f} "
+              f"{r['step_ms_p95']:7.2f} {r['skipped_share']:7.1%} {r['parallel_ideal']:5.2f} "
+              f"{r['collisions'][0]!s:>4}/{r['collisions'][1]!s:<4} {r['arrived'][0]:>5}/{r['arrived'][1]:<5}",
+              file=sys.stderr)
+    result = {"benchmark": "bench_network", "controller": args.controller, "repeats": args.repeats,
+              "workers": args.workers, "results": results}
     print(json.dumps(result))
     return result
 

@@ -238,7 +238,9 @@ class Controller(Protocol):
     def setup(self, context: ControlContext) -> None: ...
 
     def decide(self, world: World, deadline: float) -> Decisions:
-        """Decisions for the next period; ``deadline`` is a :func:`~intersection_cosim.games.budget_clock.now` value [s]."""
+        """Decisions for the next period; ``deadline`` is a :func:`~intersection_cosim.games.budget_clock.now` value [s].
+        On an empty World right after another it decides nothing and changes no state of its own
+        (the network scheduler skips such a call, sim.network_scheduler)."""
         ...
 
     def fallback(self, world: World) -> Decisions:

@@ -43,14 +43,15 @@ def sub_world(world: World, keep: list[int], guests: list[tuple[int, Guest]] = (
     return dataclasses.replace(part, path_ids=path_ids, s=s, role=role, exit_choices=exits, guest=flag, guests=())
 
 
-def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World]) -> Decisions:
+def merge_decisions(parts: dict[str, Decisions], worlds: dict[str, World], alone: bool | None = None) -> Decisions:
     """The Decisions of every junction as one, each vehicle's ``owner`` the junction that decided
     it: a vehicle one junction releases because it is now on another junction's path (in that
-    junction's sub-World) is not released. One junction's Decisions are returned as they are
-    (with their owner filled in)."""
+    junction's sub-World) is not released. The Decisions of a run's one junction (``alone``;
+    None: ``parts`` has one entry) are returned as they are (with their owner filled in);
+    ``parts`` may leave out junctions that decided nothing (the network scheduler's skipped ones)."""
     for j, d in parts.items():
         d.owner.update({vid: j for vid in (*d.accel, *d.release)})
-    if len(parts) == 1:
+    if (len(parts) == 1 if alone is None else alone) and parts:
         return next(iter(parts.values()))
     merged = Decisions()
     owner = {vid: j for j, w in worlds.items() for vid in w.ids}
@@ -109,9 +110,11 @@ class PerJunction:
         self.signal_additional = getattr(self._first, "signal_additional", None)
         self.parts: dict[str, Controller] = {}  # junction id -> its controller, after setup
         self._movements = None
+        self._junction_of: dict[str, str] = {}  # path id -> the managed junction it crosses
 
     def setup(self, context: ControlContext) -> None:
         self._movements = context.movements
+        self._junction_of = {pid: path_junction(context.movements, pid) for pid in context.movements.paths}
         self.parts = {}
         for j in context.movements.junctions:
             part = self._first if self._first is not None else self._factory()
@@ -123,15 +126,27 @@ class PerJunction:
         """The sub-World of each junction (every junction, maybe empty), by the vehicles' paths."""
         if len(self.parts) == 1:
             return {next(iter(self.parts)): world}
-        keep: dict[str, list[int]] = {j: [] for j in self.parts}
+        occupied = self.split_occupied(world)
+        empty = world.subset([]) if len(occupied) < len(self.parts) else None
+        return {j: occupied[j] if j in occupied else dataclasses.replace(empty, guests=()) for j in self.parts}
+
+    def split_occupied(self, world: World) -> dict[str, World]:
+        """The sub-Worlds of the junctions with at least one vehicle (its own or a guest), in the
+        junctions' order; with one managed junction, that junction's World whatever it holds.
+        One pass over the vehicles for the whole network: a junction without any costs nothing."""
+        if len(self.parts) == 1:
+            return {next(iter(self.parts)): world}
+        keep: dict[str, list[int]] = {}
         for k, pid in enumerate(world.path_ids):
-            keep[path_junction(self._movements, pid)].append(k)
-        guests: dict[str, list[tuple[int, Guest]]] = {j: [] for j in self.parts}
-        index = {vid: k for k, vid in enumerate(world.ids)}
-        for g in world.guests:
-            if g.vehicle in index:
-                guests[path_junction(self._movements, g.path)].append((index[g.vehicle], g))
-        return {j: sub_world(world, ks, guests[j]) for j, ks in keep.items()}
+            keep.setdefault(self._junction_of[pid], []).append(k)
+        guests: dict[str, list[tuple[int, Guest]]] = {}
+        if world.guests:
+            index = {vid: k for k, vid in enumerate(world.ids)}
+            for g in world.guests:
+                if g.vehicle in index:
+                    guests.setdefault(self._junction_of[g.path], []).append((index[g.vehicle], g))
+        return {j: sub_world(world, keep.get(j, []), guests.get(j, [])) for j in self.parts
+                if j in keep or j in guests}
 
     def decide(self, world: World, deadline: float) -> Decisions:
         worlds = self.split(world)

@@ -205,7 +205,7 @@ def _record_step(records: Records, world: World, step) -> None:
                                   world.path_ids[i], world.s[i], decisions.accel.get(vid, np.nan)))
     records.walker_rows.extend((world.time, w.id, w.crossing, w.position, w.direction, w.speed, w.x, w.y)
                                for w in world.walkers)
-    records.step_rows.extend(dataclasses.astuple(record) for record in step.records)
+    records.step_rows.extend(record.row() for record in step.records)
     kept = set(decisions.kept)
     for (a, b), junction in zip(decisions.pairs, step.pair_junctions):
         records.game_rows.append((world.time, a, b, junction, (a, b) not in kept))

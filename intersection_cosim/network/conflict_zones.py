@@ -91,9 +91,7 @@ def conflict_zone(a: MovementPath, b: MovementPath, length: float = 4.5, width: 
     if swept_b is None:
         swept_b = swept_area(b, length, width)
     s_front = _fronts(a, length)
-    pts = _body_points(a, s_front, length, width, outline=True)
-    dist, _ = swept_b.query(pts.reshape(-1, 2), distance_upper_bound=1.0)
-    hit = (dist.reshape(pts.shape[:2]) < _ZONE_MARGIN).any(axis=1)
+    hit = _hits(a, s_front, length, width, swept_b)  # the search bounded by the margin: the same hits
     if not hit.any():
         return None
     k = np.flatnonzero(hit)

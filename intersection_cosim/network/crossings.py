@@ -76,17 +76,22 @@ def junction_crossings(net_file: str, junctions: tuple[str, ...]) -> dict[str, P
     return dict(_crossings(str(net_file), tuple(junctions)))
 
 
-@functools.lru_cache(maxsize=8)
 def _crossings(net_file: str, junctions: tuple[str, ...]) -> tuple[tuple[str, PedestrianCrossing], ...]:
+    """The crossings of ``junctions``, in the net's edge order (a filter of :func:`_net_crossings`)."""
+    wanted = set(junctions)
+    return tuple((lane, c) for lane, c in _net_crossings(net_file) if c.junction in wanted)
+
+
+@functools.lru_cache(maxsize=4)
+def _net_crossings(net_file: str) -> tuple[tuple[str, PedestrianCrossing], ...]:
+    """Every crossing of ``net_file`` by lane id, in the net's edge order: the net is read once
+    per file, not once per junction (a city of 208 managed junctions read it 208 times)."""
     net = sumolib.net.readNet(net_file, withInternal=True, withPedestrianConnections=True)
-    wanted = {f":{j}_" for j in junctions}
     out = []
     for edge in net.getEdges(withInternal=True):
         if edge.getFunction() != "crossing":
             continue
         junction = edge.getID()[1:].rsplit("_", 1)[0]
-        if f":{junction}_" not in wanted:
-            continue
         lane = edge.getLanes()[0]
         shape = lane.getShape()
         areas = sorted({e.getLanes()[0].getID() for e in (*edge.getIncoming(), *edge.getOutgoing())

@@ -58,7 +58,7 @@ GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b", "junction", "solved"]  # time 
 # played, where, and whether its game was solved (False: it kept its last equilibrium, control/game/game_reuse.py)
 # one row per control step and managed junction (its controller's own record)
 STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves",
-                "junction"]
+                "junction", "skipped"]  # skipped: the junction had nothing to decide (sim.network_scheduler)
 
 # --- a sweep folder ----------------------------------------------------------------------------
 SPEC_FILE = "sweep.json"

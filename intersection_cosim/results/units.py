@@ -46,6 +46,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "deferred": ("count", "games and solo solves left to a later step by the anytime step"),
     "qp_solves": ("count", "QPs solved in the step"),
     "junction": ("text", "SUMO junction id"),
+    "skipped": ("bool", "the junction had nothing to decide: its controller was not called"),
     "vehicle_a": ("text", "first vehicle of the pair"),
     "vehicle_b": ("text", "second vehicle of the pair"),
     "solved": ("bool", "the game was solved (False: its last equilibrium was kept)"),

@@ -6,6 +6,12 @@ each junction has the whole budget to itself (``budget_ms`` per junction, so a s
 junctions may take up to n budgets of wall time, as n boxes side by side would), and a junction
 that overruns gets its own fallback while the others keep their decisions. It returns the merged
 Decisions and one StepRecord per junction (its ``junction`` column in steps.csv).
+
+A junction with nothing to decide costs nothing: its controller is skipped (a record with
+``skipped`` set and no compute) while its sub-World is empty and was empty at its last decided
+step too, when the controller has already released every vehicle it had. So a controller must
+decide nothing, and change nothing it keeps, on a second empty World in a row (the protocol's
+contract, control.base.Controller).
 """
 
 from __future__ import annotations
@@ -34,18 +40,34 @@ class NetworkScheduler:
         self.work_clock_ms = work_clock_ms  # [ms] per QP solve; 0: the wall clock (sim.scheduler)
         self._pacer = StepScheduler(controller, budget_ms, realtime)
         self._schedulers: dict[str, StepScheduler] = {}
+        self._idle: set[str] = set()  # junctions whose controller last decided on an empty sub-World
 
     def step(self, world: World) -> NetworkStep:
         if not self._schedulers:
             self._schedulers = {j: StepScheduler(part, self.budget_ms, work_clock_ms=self.work_clock_ms) for j, part in self.controller.parts.items()}
-        worlds = self.controller.split(world)
+        worlds = self.controller.split_occupied(world)
         parts, records, pair_junctions = {}, [], []
-        for j, sub in worlds.items():
-            decisions, record = self._schedulers[j].step(sub)
+        for j, scheduler in self._schedulers.items():
+            sub = worlds.get(j)
+            if sub is None or not len(sub):
+                if j in self._idle:
+                    records.append(StepRecord(world.time, 0.0, 0, 0, False, False, junction=j, skipped=True))
+                    continue
+                sub = self._empty(world) if sub is None else sub
+                self._idle.add(j)
+            else:
+                self._idle.discard(j)
+            decisions, record = scheduler.step(sub)
             parts[j] = decisions
             records.append(dataclasses.replace(record, junction=j))
             pair_junctions.extend(j for _ in decisions.pairs)
-        return NetworkStep(merge_decisions(parts, worlds), records, pair_junctions)
+        merged = merge_decisions(parts, worlds, alone=len(self._schedulers) == 1)
+        return NetworkStep(merged, records, pair_junctions)
+
+    @staticmethod
+    def _empty(world: World) -> World:
+        """The sub-World of a junction without any vehicle (``world``'s time, walkers and lane data)."""
+        return dataclasses.replace(world.subset([]), guests=())
 
     def pace(self, sim_time: float) -> None:
         """With ``realtime``, sleep until the wall clock has caught up with ``sim_time`` [s]."""

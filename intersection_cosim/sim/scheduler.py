@@ -41,6 +41,12 @@ class StepRecord:
     deferred: int = 0  # games / solo solves the controller left out to meet the budget
     qp_solves: int = 0  # QPs decide solved (its work; kept when the fallback replaces its decisions)
     junction: str = ""  # the managed junction whose controller this is (sim.network_scheduler)
+    skipped: bool = False  # the junction had nothing to decide: its controller was not called
+
+    def row(self) -> tuple:
+        """The record as a steps.csv row (STEP_COLUMNS' order), without dataclasses.astuple's
+        deep copy: one record per junction and step is written (208 junctions in a city)."""
+        return tuple(self.__dict__.values())
 
 
 @contextmanager

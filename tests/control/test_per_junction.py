@@ -85,3 +85,43 @@ def test_each_junction_sees_its_own_vehicles_human_flags(movements):
                                               ("N", "gneE21_0>gneE22_0", 60.0, 5.0)])
     pj.decide(dataclasses.replace(world, human=np.array([False, True, True])), deadline=1e12)
     assert [p.seen for p in pj.parts.values()] == [[[("W", True)]], [[("E", False), ("N", True)]], [[]]]
+
+
+def test_network_scheduler_skips_a_junction_only_on_its_second_empty_step_in_a_row(movements):
+    """An empty junction is called once (to release what it had), then skipped while it stays
+    empty; a vehicle arriving calls it again. The merged Decisions are those of calling them all."""
+    from intersection_cosim.sim.network_scheduler import NetworkScheduler
+
+    class Releasing(_Recorder):
+        """Releases the vehicles it commanded and no longer sees (the controllers' contract)."""
+
+        def decide(self, world, deadline):
+            self.seen.append(list(world.ids))
+            gone, self.had = sorted(getattr(self, "had", set()) - set(world.ids)), set(world.ids)
+            return Decisions(accel={vid: 1.0 for vid in world.ids}, release=gone, games=len(world.ids))
+
+    def run(skip: bool):
+        pj = PerJunction(Releasing)
+        pj.setup(ControlContext(movements=movements, model=ModelSettings(), control_period=0.1, settings=None,
+                                etm=True))
+        sched = NetworkScheduler(pj, budget_ms=1e9)
+        if not skip:
+            sched._idle = type("Never", (set,), {"__contains__": lambda self, j: False})()
+        out = []
+        for t, vehicles in enumerate([[("W", "gneE18_0>gneE19_0", 50.0, 5.0)],
+                                      [("W", "gneE18_0>gneE19_0", 55.0, 5.0)],
+                                      [("N", "gneE21_0>gneE22_0", 60.0, 5.0)]]):
+            step = sched.step(make_world(movements.paths, float(t), vehicles))
+            out.append((step.decisions.accel, step.decisions.release, step.decisions.owner,
+                        [(r.junction, r.skipped, r.games) for r in step.records]))
+        return out, [len(p.seen) for p in pj.parts.values()]
+
+    skipping, calls = run(skip=True)
+    calling, all_calls = run(skip=False)
+    assert all_calls == [3, 3, 3]
+    assert calls == [3, 2, 1]  # gneJ10: W, W, empty; gneJ11: empty, skipped, N; gneJ12: empty, skipped, skipped
+    assert [[(j, s) for j, s, _ in step[3]] for step in skipping] == [
+        [("gneJ10", False), ("gneJ11", False), ("gneJ12", False)],
+        [("gneJ10", False), ("gneJ11", True), ("gneJ12", True)],
+        [("gneJ10", False), ("gneJ11", False), ("gneJ12", True)]]
+    assert [step[:3] for step in skipping] == [step[:3] for step in calling]

@@ -17,10 +17,12 @@ def _scenario(budget_ms: float):
 
 
 def test_every_step_over_budget_still_drains_the_junction_without_collision(tmp_path):
-    # a budget no step can meet: every control step is a deadline miss and runs the fallback
+    # a budget no step can meet: every control step the controller is called in is a deadline
+    # miss and runs the fallback (the steps of an empty junction after its first skip it)
     summary = run_scenario(_scenario(budget_ms=1e-6), tmp_path / "run")
     steps = pd.read_csv(tmp_path / "run" / "steps.csv")
-    assert steps["fallback"].all() and len(steps) > 100
+    called = steps[~steps["skipped"]]
+    assert called["fallback"].all() and len(called) > 100
     vehicles = pd.read_csv(tmp_path / "run" / "vehicles.csv")
     assert len(vehicles) >= 10
     # every vehicle arrives (a fallback that shifted only the last plans decided in time braked

@@ -43,7 +43,7 @@ def test_csv_columns(case1a_run):
     assert cols["pairs.csv"] == ["vehicle_a", "vehicle_b", "conflict", "min_ttc", "pet", "min_ttc_ssm", "time_min_ttc_ssm",
                                  "pet_ssm", "game_steps", "driver_a", "driver_b", "vtype_a", "vtype_b"]
     assert cols["steps.csv"] == ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback",
-                                     "deferred", "qp_solves", "junction"]
+                                     "deferred", "qp_solves", "junction", "skipped"]
 
 
 def test_all_arrive_no_collision_travel_time_is_tripinfo(case1a_run):

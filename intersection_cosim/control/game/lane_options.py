@@ -11,6 +11,7 @@ one, as in multi-rate MPC); in between the vehicle holds its last choice.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -87,13 +88,19 @@ def _partners(relations: Relations) -> dict[int, dict[str, tuple | None]]:
     return sig
 
 
+@functools.lru_cache(maxsize=2)
+def _read_net(net_file: str):
+    """The sumolib net of ``net_file`` (no internal lanes), read once for every junction's controller."""
+    return sumolib.net.readNet(net_file)
+
+
 class LaneChangeCosts:
     """J_lk (Eq. 23) of each exit lane of a path: its lateral offset [m] from the movement's
     preferred exit lane, measured on the net's exit edge (the widths of the lanes between the
     two centre lines, read with sumolib)."""
 
     def __init__(self, movements: Movements, model: ModelSettings):
-        net = sumolib.net.readNet(str(movements.net_file))
+        net = _read_net(str(movements.net_file))
         self._lane = {}  # exit lane id -> (edge id, lane index)
         self._widths = {}  # exit edge id -> [m] width of each of its lanes, by index
         for path in movements.paths.values():
