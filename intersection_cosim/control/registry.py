@@ -102,6 +102,10 @@ def _register_builtin() -> None:
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
         register(name, Entry(lambda settings, jtype, name=name: GameController(name, settings),
                              GameControllerSettings, f"the paper's differential game, {what} equilibrium"))
+        register(f"{name}-coupled", Entry(lambda settings, jtype, name=name: GameController(name, settings, coupling="cluster"),
+                                          GameControllerSettings,
+                                          f"the differential game, {what} equilibrium, one N-player game per conflict "
+                                          "cluster of three or more vehicles"))
     register("fcfs", Entry(lambda settings, jtype: FcfsController(settings), FcfsSettings,
                            "first-come-first-served reservation of the conflict points (Dresner and Stone)",
                            table="solver"))

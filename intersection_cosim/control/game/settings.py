@@ -75,6 +75,12 @@ class PolicySettings:
     #                               of a 20 ms budget; the filter's 99.9th percentile at 1800 veh/h
     #                               is 1.2-2.6 ms (docs/design.md, issue 18, sixth part)
 
+    # check every converged cluster game (ProblemSettings.coupling = "cluster") for unilateral
+    # deviations (games/coupled_check.py) and record the result in games.csv; the checks run when
+    # the run's diagnostics are collected, after the loop, outside the step budget (they take
+    # 10-100 times a solve)
+    cluster_check: bool = False
+
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
         problems += non_negative(self, "game_max_iter", "solo_leader_tol", "solo_speed_tol", "solo_position_tol",
