@@ -178,6 +178,7 @@ class _Hierarchy:
         comfortable braking (passing before or after a partner are separate local optima); the
         least true cost of the three."""
         game, sv = self.game, self.game.gs.solver
+        steps = min(sv.br_max_sqp, sv.nash_max_iter * sv.sqp_steps_per_iteration)  # the answer's own cap
         best = (self.cost(p, plans), plans[p])
         for a in (np.full(game.N, game.gs.problem.a_max), safe_plan(game.problem.players[p], game.gs)):
             if self.late():
@@ -185,7 +186,7 @@ class _Hierarchy:
             trial = list(plans)
             trial[p] = game.warm_plan(p, a)
             game.delta[p] = sv.trust_region
-            trial[p] = game.respond(p, trial, sv.br_max_sqp)
+            trial[p] = game.respond(p, trial, steps)
             c = self.cost(p, trial)
             if c < best[0]:
                 best = (c, trial[p])
@@ -212,15 +213,16 @@ class _Hierarchy:
         return best[1]
 
     def candidates(self, plans: list[Plan], leader: int, followers: tuple[int, ...]) -> list[Plan]:
-        """The leader's current plan, its pass-first plan (best response to every follower
-        braking comfortably) and their midpoint."""
+        """The leader's current plan, its pass-first plan (``stackelberg_max_iter`` SQP steps
+        of its best response to every follower braking comfortably: a game in progress, capped at
+        one leader iteration a step, takes one) and their midpoint."""
         if self.late():
             return [plans[leader]]
         game = self.game
         yielding = list(plans)
         for f in followers:
             yielding[f] = safe_plan(game.problem.players[f], game.gs)
-        first = game.respond(leader, yielding, game.gs.solver.br_max_sqp)
+        first = game.respond(leader, yielding, game.gs.solver.stackelberg_max_iter)
         a = plans[leader].accelerations
         mid = game.plan(leader, a + MIDPOINT * (first.accelerations - a))
         return [plans[leader], first, mid]

@@ -12,7 +12,8 @@ plans the members drive. A game in progress runs under the capped settings of a 
 choose tries its other exit lanes alone, in TCP order, the cluster re-solved from the current
 plans, and keeps one that lowers its own true cost (J_lk of Eq. 23 included): one pass of
 unilateral discrete best responses. The anytime schedule keeps its own running estimates of a
-cluster's solve time; a cluster that would not fit is deferred (its members keep their plans).
+cluster's solve time; a cluster is deferred (its members keep their plans) only when not even a
+game in progress's capped solve would fit; any longer solve is cut at the anytime deadline.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 from typing import Mapping
 
 from intersection_cosim.control.base import World
-from intersection_cosim.control.game.anytime import GameTimeEstimate
+from intersection_cosim.control.game.anytime import SLOW_SOLVE_FACTOR, SolveTimeEstimate
 from intersection_cosim.control.game.pair_games import GameSolver, PairGame
 from intersection_cosim.control.game.plan_memory import PlanMemory
 from intersection_cosim.control.game.players import player
@@ -34,8 +35,7 @@ from intersection_cosim.games.coupled_check import check_cluster
 from intersection_cosim.games.problem import GameResult, Interaction, Problem
 
 COUPLED = {"nash": coupled_nash, "stackelberg": coupled_stackelberg}
-CLUSTER_COLD_S = 0.02  # [s] first estimate of a cluster's solve without a warm start
-CLUSTER_WARM_S = 0.006  # [s] ... with one
+CLUSTER_WARM_S = 0.004  # [s] first estimate of a game in progress's solve (one capped iteration)
 MIN_SIZE = 3  # [-] vehicles of the smallest component that plays one coupled game
 
 
@@ -43,8 +43,8 @@ MIN_SIZE = 3  # [-] vehicles of the smallest component that plays one coupled ga
 class ClusterKey:
     """The game of a cluster for one combination of exit lanes (a warm-start key of PlanMemory)."""
 
-    members: tuple[str, ...]
-    exits: tuple[str, ...]
+    members: tuple[str, ...]  # sorted vehicle ids
+    exits: tuple[str, ...]  # each member's exit lane
 
     def vehicles(self) -> tuple[str, ...]:
         return self.members
@@ -76,6 +76,12 @@ class ClusterRow:
     check: str  # "pass" | "fail" | "" (not checked: checks off, or the game did not converge)
     gain_sampled: float  # [-] largest relative gain of a unilateral deviation, SLSQP (NaN: not checked)
     gain_resolve: float  # [-] ... by a best-response re-solve
+
+
+def cluster_key(world: World, members: tuple[int, ...], exits: Mapping[int, str]) -> ClusterKey:
+    """The key of ``members`` taking ``exits``, whatever their order this step (by vehicle id)."""
+    by_id = sorted((world.ids[k], exits[k]) for k in members)
+    return ClusterKey(tuple(v for v, _ in by_id), tuple(e for _, e in by_id))
 
 
 def split_clusters(games: Mapping[tuple[int, int], PairGame]) -> tuple[list[tuple[int, ...]], dict]:
@@ -113,12 +119,21 @@ def tcp_order(problem: Problem, members: tuple[int, ...], model) -> tuple[int, .
     return tuple(members[m] for m in sorted(range(len(members)), key=lambda m: (tcp[m], members[m])))
 
 
+class _WarmEstimate(SolveTimeEstimate):
+    """The running mean time [s] of a game in progress's (capped) solve. A cluster is deferred only
+    when not even that fits; a longer solve (a first one, several capped iterations) runs under
+    the anytime deadline and returns its best plans so far when it is reached."""
+
+    def fits(self, cutoff: float) -> bool:
+        return budget_clock.now() + SLOW_SOLVE_FACTOR * self.seconds <= cutoff
+
+
 class ClusterGames:
     """The coupled games of one controller: solves, warm starts, anytime estimates, records."""
 
     def __init__(self, equilibrium: str, solver: GameSolver, memory: PlanMemory, check: bool):
         self.equilibrium, self.solver, self.memory, self.check = equilibrium, solver, memory, check
-        self.estimate = GameTimeEstimate(CLUSTER_COLD_S, CLUSTER_WARM_S)
+        self.estimate = _WarmEstimate(CLUSTER_WARM_S)
         self.solves: list[ClusterSolve] = []
         self._rows: list[ClusterRow] = []  # the records of solves[:len(_rows)], checked
 
@@ -134,26 +149,38 @@ class ClusterGames:
         problem = cluster_problem(world, members, exits, games, relations, self.memory, lane_costs)
         members = tcp_order(problem, members, self.solver.model)
         problem = cluster_problem(world, members, exits, games, relations, self.memory, lane_costs)
-        key = ClusterKey(tuple(ids[k] for k in members), tuple(exits[k] for k in members))
-        warm = self.memory.warm_start(key, world.time)
+        key = cluster_key(world, members, exits)
+        warm = self._warm(key, world, members)
         if warm is None:
             warm = tuple(self.memory.driven_plan(ids[k], exits[k]) for k in members)
             warm = None if all(p is None for p in warm) else warm
-        n_warm = int(warm is not None and all(p is not None for p in warm))
-        if not self.estimate.fits(n_warm, 1 - n_warm, cutoff):
-            self.estimate.deferred(n_warm, 1 - n_warm)
+        if not self.estimate.fits(cutoff):
+            self.estimate.deferred()
             return None
         t0 = budget_clock.now()
         in_progress = self.memory.periods_since(key, world.time) == 1
         result = self._solve(problem, warm, in_progress, cutoff)
-        self.estimate.measured(n_warm, 1 - n_warm, budget_clock.now() - t0)
+        if in_progress:
+            self.estimate.measured(budget_clock.now() - t0)
         if result.status != "solver failure":
-            self.memory.store(key, world.time, result.plans)
+            self._store(key, world, members, result.plans)
         if lane_costs:
             problem, result, exits = self._lane_choice(world, members, games, options, relations, lane_costs,
                                                        problem, result, exits, cutoff)
-        self._record(world, key.members, problem, result)
+        self._record(world, tuple(ids[k] for k in members), problem, result)
         return members, result, exits
+
+    def _warm(self, key: ClusterKey, world: World, members: tuple[int, ...]):
+        """The cluster's stored plans, shifted, in the order of ``members`` (None: none)."""
+        plans = self.memory.warm_start(key, world.time)
+        if plans is None:
+            return None
+        by_id = dict(zip(key.members, plans))
+        return tuple(by_id[world.ids[k]] for k in members)
+
+    def _store(self, key: ClusterKey, world: World, members: tuple[int, ...], plans) -> None:
+        by_id = {world.ids[k]: p for k, p in zip(members, plans)}
+        self.memory.store(key, world.time, tuple(by_id[v] for v in key.members))
 
     def _solve(self, problem: Problem, warm, in_progress: bool, cutoff: float) -> GameResult:
         gs = self.solver.warm_settings if in_progress and self.solver.warm_settings is not None else self.solver.settings
@@ -171,8 +198,7 @@ class ClusterGames:
                 res = self._solve(trial, result.plans, False, cutoff)
                 if res.status != "solver failure" and res.costs[m] < result.costs[m]:
                     problem, result, exits = trial, res, trial_exits
-                    self.memory.store(ClusterKey(tuple(world.ids[q] for q in members),
-                                                 tuple(exits[q] for q in members)), world.time, res.plans)
+                    self._store(cluster_key(world, members, exits), world, members, res.plans)
         return problem, result, exits
 
     def _record(self, world: World, members: tuple[str, ...], problem: Problem, result: GameResult) -> None:
