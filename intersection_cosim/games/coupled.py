@@ -186,7 +186,7 @@ class _Hierarchy:
             trial = list(plans)
             trial[p] = game.warm_plan(p, a)
             game.delta[p] = sv.trust_region
-            trial[p] = game.respond(p, trial, steps)
+            trial[p] = self.respond(p, trial, steps)
             c = self.cost(p, trial)
             if c < best[0]:
                 best = (c, trial[p])
@@ -222,10 +222,22 @@ class _Hierarchy:
         yielding = list(plans)
         for f in followers:
             yielding[f] = safe_plan(game.problem.players[f], game.gs)
-        first = game.respond(leader, yielding, game.gs.solver.stackelberg_max_iter)
+        first = self.respond(leader, yielding, game.gs.solver.stackelberg_max_iter)
         a = plans[leader].accelerations
         mid = game.plan(leader, a + MIDPOINT * (first.accelerations - a))
         return [plans[leader], first, mid]
+
+    def respond(self, p: int, plans: list[Plan], steps: int) -> Plan:
+        """Player p's best response to ``plans`` from plans[p]: up to ``steps`` SQP steps, one at a
+        time so that the anytime deadline can stop it between two, and no further once a step
+        moved the plan less than ``br_step_tol`` [m/s^2]."""
+        plans = list(plans)
+        for _ in range(steps):
+            old = plans[p].accelerations
+            plans[p] = self.game.respond(p, plans, 1)
+            if float(np.max(np.abs(plans[p].accelerations - old))) < self.game.gs.solver.br_step_tol or self.late():
+                break
+        return plans[p]
 
     def cost(self, p: int, plans: list[Plan]) -> float:
         obj = self.game.objs[p]
