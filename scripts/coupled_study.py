@@ -68,7 +68,7 @@ def play_cases(out: Path) -> list[str]:
             run_dir = out / "cases" / f"{case}-{ctrl}"
             cmd = [sys.executable, "-m", "intersection_cosim", "run", case_scenario(out, case, ctrl), "--controller",
                    ctrl, "--budget-ms", f"{CASE_BUDGET_MS:g}", "--out", run_dir, "--force"]
-            cmds.append(sh(cmd[1:]))
+            cmds.append("python " + sh(cmd[1:]))
             if (run_dir / "summary.json").is_file():
                 continue
             proc = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, cwd=ROOT)
@@ -123,14 +123,24 @@ def case_rows(out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 # ---------------------------------------------------------------- the demand levels
 def demand_tables(out: Path, levels: list[str]) -> tuple[pd.DataFrame, dict]:
-    """comparison.csv of each level's compare folder, and the cluster sizes met per level and
-    coupled controller (a pair game counts as size 2)."""
+    """comparison.csv of each level's compare folder with the QPs solved per control step (the
+    work, independent of the machine's load: median, 95th percentile), and the cluster sizes met
+    per level and coupled controller (a pair game counts as size 2)."""
     frames, sizes = [], {}
     for level in levels:
         folder = out / f"compare_{level}"
         if not (folder / "comparison.csv").is_file():
             continue
-        frames.append(pd.read_csv(folder / "comparison.csv").assign(level=level))
+        table = pd.read_csv(folder / "comparison.csv").assign(level=level)
+        qps: dict[str, list] = {}
+        for summary in sorted(folder.glob("*/runs/*/summary.json")):
+            ctrl = json.loads(summary.read_text())["controller"]
+            steps = pd.read_csv(summary.parent / "steps.csv")
+            qps.setdefault(ctrl, []).append(steps.groupby("time")["qp_solves"].sum())
+        for q in (0.5, 0.95):
+            table[f"qp_per_step_{'median' if q == 0.5 else 'p95'}"] = [
+                pd.concat(qps[c]).quantile(q) if c in qps else np.nan for c in table["controller"]]
+        frames.append(table)
         for summary in sorted(folder.glob("*/runs/*/summary.json")):
             ctrl = json.loads(summary.read_text())["controller"]
             if not ctrl.endswith("-coupled"):
@@ -151,7 +161,7 @@ def differences(table: pd.DataFrame) -> pd.DataFrame:
     """Coupled minus pairwise, per level and equilibrium."""
     rows = []
     cols = ["travel_time_mean", "time_loss_mean", "ssm_min_ttc", "ssm_min_pet", "ssm_share_under_thresholds",
-            "compute_ms_median", "compute_ms_p95"]
+            "compute_ms_median", "compute_ms_p95", "qp_per_step_median", "qp_per_step_p95", "deadline_miss_share"]
     for level, t in table.groupby("level", sort=False):
         t = t.set_index("controller")
         for eq in ("nash", "stackelberg"):
@@ -223,9 +233,11 @@ def write_page(argv, case_cmds, demand_cmds, cases, pairs, table, diffs, figure,
     if len(table):
         cols = ["level", "controller", "runs_ok", "vehicles", "arrived", "collisions", "late_or_stuck",
                 "travel_time_mean", "time_loss_mean", "ssm_min_ttc", "ssm_min_pet", "ssm_share_under_thresholds",
-                "compute_ms_median", "compute_ms_p95", "deadline_miss_share"]
+                "compute_ms_median", "compute_ms_p95", "qp_per_step_median", "qp_per_step_p95", "deadline_misses",
+                "deadline_miss_share"]
         parts += [markdown_table(table[[c for c in cols if c in table]]), "",
-                  "Coupled minus pairwise (travel time and time loss [s], SSM margins [s], compute [ms]):", "",
+                  "Coupled minus pairwise (travel time and time loss [s], SSM margins [s], compute [ms], QPs per "
+                  "step, deadline-miss share):", "",
                   markdown_table(diffs) if len(diffs) else "(no pair of runs to compare)", ""]
     if figure is not None:
         parts += ["## Cluster sizes", "", f"![cluster sizes]({figure.relative_to(PAGE.parent).as_posix()})", ""]
@@ -255,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     demand_cmds, missing = [], []
     for level in levels:
         cmd = demand_command(out, level, args.seeds)
-        demand_cmds.append(sh(cmd[1:]))
+        demand_cmds.append("python " + sh(cmd[1:]))
         if args.run_demand:
             subprocess.run([str(c) for c in cmd], cwd=ROOT, check=False)
         if not (out / f"compare_{level}" / "comparison.csv").is_file():
