@@ -76,10 +76,15 @@ def play_cases(out: Path) -> list[str]:
     return cmds
 
 
-def demand_command(out: Path, level: str, seeds: str) -> list[str]:
+def demand_command(out: Path, level: str, seeds: str, work_clock_ms: float | None = None) -> list[str]:
+    """The compare of one demand level; with ``work_clock_ms`` the budget is kept by the work clock
+    (each QP costs that many ms: deadline misses independent of the machine's load), into
+    ``compare_<level>_wc``."""
+    wc = [] if work_clock_ms is None else ["--work-clock", f"{work_clock_ms:g}"]
+    folder = out / (f"compare_{level}" + ("" if work_clock_ms is None else "_wc"))
     return [sys.executable, "-m", "intersection_cosim", "compare", f"scenarios/demand_balanced_{level}.toml",
-            "--controllers", ",".join(CONTROLLERS), "--seeds", seeds, "--budget-ms", f"{DEMAND_BUDGET_MS:g}",
-            "--workers", "1", "--no-progress", "--out", out / f"compare_{level}"]
+            "--controllers", ",".join(CONTROLLERS), "--seeds", seeds, "--budget-ms", f"{DEMAND_BUDGET_MS:g}", *wc,
+            "--workers", "1", "--no-progress", "--out", folder]
 
 
 # ---------------------------------------------------------------- the cases
@@ -220,14 +225,16 @@ def write_page(argv, case_cmds, demand_cmds, cases, pairs, table, diffs, figure,
              "runs check every converged cluster game. Entry order: the order in which the vehicles entered the "
              "junction. Commands:", "", "```", *case_cmds, "```", ""]
     if len(cases):
-        parts += [markdown_table(cases), "", "Min TTC and PET per pair (ours, `pairs.csv`):", "",
+        parts += [*order_notes(cases), "", markdown_table(cases), "", "Min TTC and PET per pair (ours, `pairs.csv`):", "",
                   markdown_table(pairs.pivot_table(index=["case", "pair"], columns="controller",
                                                    values=["min TTC [s]", "PET [s]"]).reset_index()
                                  .pipe(_flatten)), ""]
     parts += ["## Demand scenarios", "",
               f"`compare` of the balanced demand at each level, seeds as in the commands, step budget "
-              f"{DEMAND_BUDGET_MS:g} ms, one run at a time on a machine shared with other work (the compute "
-              "times and the deadline-miss share depend on its load). Commands:", "", "```", *demand_cmds, "```", ""]
+              f"{DEMAND_BUDGET_MS:g} ms, one run at a time on a machine shared with other work: the compute "
+              "times and the deadline misses of the wall-clock runs depend on its load. A level named `<level>_wc` "
+              "kept its budget by the work clock instead (`--work-clock`: every QP costs a fixed time), so its "
+              "deadline misses depend on the work alone. Commands:", "", "```", *demand_cmds, "```", ""]
     if missing:
         parts += [f"Not run for this page (no finished compare folder): {', '.join(missing)}.", ""]
     if len(table):
@@ -244,6 +251,17 @@ def write_page(argv, case_cmds, demand_cmds, cases, pairs, table, diffs, figure,
     PAGE.write_text("\n".join(parts))
 
 
+def order_notes(cases: pd.DataFrame) -> list[str]:
+    """One line per case and equilibrium: did coupling change who entered the junction first?"""
+    out = []
+    for (case, eq), _ in cases.assign(eq=cases["controller"].str.replace("-coupled", "")).groupby(["case", "eq"], sort=False):
+        t = cases.set_index(["case", "controller"])
+        if (case, eq) in t.index and (case, f"{eq}-coupled") in t.index:
+            a, b = t.loc[(case, eq), "entry order"], t.loc[(case, f"{eq}-coupled"), "entry order"]
+            out.append(f"- {case}, {eq}: entry order " + (f"unchanged ({a})" if a == b else f"{a} pairwise, {b} coupled"))
+    return out
+
+
 def _flatten(df: pd.DataFrame) -> pd.DataFrame:
     df.columns = [" ".join(str(x) for x in c if x) if isinstance(c, tuple) else c for c in df.columns]
     return df
@@ -257,6 +275,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="1-5", help="seeds of the demand runs (default: 1-5)")
     ap.add_argument("--run-demand", action="store_true", help="run (or finish) the compare of every level")
     ap.add_argument("--skip-cases", action="store_true", help="only read the case runs already there")
+    ap.add_argument("--work-clock", type=float, default=None, metavar="MS",
+                    help="also the demand compares on the work clock (MS per QP), seeds --wc-seeds")
+    ap.add_argument("--wc-seeds", default="1", help="seeds of the work-clock compares (default: 1)")
     args = ap.parse_args(argv)
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -264,16 +285,18 @@ def main(argv: list[str] | None = None) -> int:
     case_cmds = [] if args.skip_cases else play_cases(out)
     if args.skip_cases:
         case_cmds = ["(case runs read from an earlier call)"]
-    demand_cmds, missing = [], []
-    for level in levels:
-        cmd = demand_command(out, level, args.seeds)
+    demand_cmds, missing, found = [], [], []
+    runs = [(level, level, args.seeds, None) for level in levels]
+    if args.work_clock is not None:
+        runs += [(level, f"{level}_wc", args.wc_seeds, args.work_clock) for level in levels]
+    for level, name, seeds, wc in runs:
+        cmd = demand_command(out, level, seeds, wc)
         demand_cmds.append("python " + sh(cmd[1:]))
         if args.run_demand:
             subprocess.run([str(c) for c in cmd], cwd=ROOT, check=False)
-        if not (out / f"compare_{level}" / "comparison.csv").is_file():
-            missing.append(level)
+        (found if (out / f"compare_{name}" / "comparison.csv").is_file() else missing).append(name)
     cases, pairs = case_rows(out)
-    table, sizes = demand_tables(out, levels)
+    table, sizes = demand_tables(out, found)
     figure = size_figure(sizes, FIGURE) if sizes else None
     write_page(argv, case_cmds, demand_cmds, cases, pairs, table, differences(table) if len(table) else table,
                figure, levels, missing)
