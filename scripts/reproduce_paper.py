@@ -52,7 +52,8 @@ from intersection_cosim.results.units import write_units  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ["case1_A", "case1_B", "case1_C", "case1_D", "case2_A", "case2_B"]
 QUICK = ["case1_A", "case2_A"]
-CONTROLLERS = {"nash": "NE", "stackelberg": "SE"}
+CONTROLLERS = {"nash": "NE", "stackelberg": "SE"}  # --coupled: COUPLED_CONTROLLERS
+COUPLED_CONTROLLERS = {"nash-coupled": "NE", "stackelberg-coupled": "SE"}  # one N-player game per cluster
 PAIRS = {"case1": ["V1-V2", "V1-V3"], "case2": ["V1-V2", "V1-V3", "V3-V4"]}
 MIN_CUT = 0.40  # the ETM must cut the mean compute time per step by at least this
 MIN_SKIP = 0.20  # ... where it leaves out at least this share of the games played without it (else n/a)
@@ -326,7 +327,7 @@ def orderings(runs: Runs, cases: list[str], all_runs: list[tuple]) -> pd.DataFra
     for case in cases:
         vals, ok = [], True
         for pair in PAIRS[case.split("_")[0]]:
-            ne, se = runs.ttc(case, "nash", pair), runs.ttc(case, "stackelberg", pair)
+            ne, se = (runs.ttc(case, ctrl, pair) for ctrl in CONTROLLERS)  # the Nash controller first
             if ne is None and se is None:
                 continue
             vals.append(f"{pair}: SE {f(se)}, NE {f(ne)}")
@@ -450,7 +451,7 @@ def stopping_rule(runs: Runs, case: str, ctrl: str) -> dict:
         return float(solver.get(key, getattr(default, key)))
 
     # both equilibria also stop on a relative cost gain < nash_cost_rtol below nash_cost_guard
-    return {"tol": get("stackelberg_tol" if ctrl == "stackelberg" else "nash_tol"), "guard": get("nash_cost_guard"),
+    return {"tol": get("stackelberg_tol" if ctrl.startswith("stackelberg") else "nash_tol"), "guard": get("nash_cost_guard"),
             "rtol": get("nash_cost_rtol")}
 
 
@@ -475,7 +476,8 @@ def md_table(df: pd.DataFrame) -> str:
 
 
 def defaults(runs: Runs, cases: list[str]) -> tuple[dict, dict, str]:
-    s = next((runs.summary(c, "nash") for c in cases if runs.ok(c, "nash")), None) or {}
+    nash = next(iter(CONTROLLERS))
+    s = next((runs.summary(c, nash) for c in cases if runs.ok(c, nash)), None) or {}
     model, tables = s.get("settings", {}).get("model") or {}, s.get("settings", {}).get("controller_settings")
     note = "from summary.json"
     if tables is None:  # the CLI's --controller override leaves it null; the controller uses these
@@ -512,10 +514,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="parallel runs (default: 2)")
     ap.add_argument("--quick", action="store_true", help="only case1_A and case2_A")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    ap.add_argument("--coupled", action="store_true",
+                    help="the coupled controllers (nash-coupled, stackelberg-coupled) instead of the pairwise ones")
     ap.add_argument("--budget-ms", type=float, default=BUDGET_MS,
                     help=f"control-step budget of every run [ms] (default: {BUDGET_MS:g}, never binds; "
                          "100 = the HIL box)")
     args = ap.parse_args(argv)
+    if args.coupled:
+        global CONTROLLERS
+        CONTROLLERS = COUPLED_CONTROLLERS
     if not args.budget_ms > 0:
         print(f"reproduce_paper: --budget-ms: budget_ms = {args.budget_ms:g}: must be > 0", file=sys.stderr)
         return 2

@@ -215,13 +215,16 @@ class Diagnostics:
     ``box_rule_clearances``: [-] accelerations the safety filter raised so a vehicle clears a
     crossing it has entered (the box rule). ``pedestrian_holds``: [-] control steps x vehicles
     held back for a pedestrian at a crossing (control/safety/pedestrians.py). All three None for a
-    controller without that filter (summary.json then records null).
+    controller without that filter (summary.json then records null). ``clusters``: one record per
+    coupled cluster game (control/game/cluster_games.py ClusterRow: time [s], members, iterations,
+    residual [m/s^2], status, equilibrium check), None for a controller that plays none by design.
     """
 
     convergence: tuple | None = None
     safety_interventions: int | None = None
     box_rule_clearances: int | None = None
     pedestrian_holds: int | None = None
+    clusters: tuple | None = None
 
 
 class Controller(Protocol):

@@ -89,8 +89,10 @@ def merge_diagnostics(parts: list[Diagnostics]) -> Diagnostics:
 
     conv = [d.convergence for d in parts]
     convergence = None if all(c is None for c in conv) else tuple(r for c in conv for r in (c or ()))
+    clu = [d.clusters for d in parts]
+    clusters = None if all(c is None for c in clu) else tuple(r for c in clu for r in (c or ()))
     return Diagnostics(convergence, total("safety_interventions"), total("box_rule_clearances"),
-                       total("pedestrian_holds"))
+                       total("pedestrian_holds"), clusters)
 
 
 class PerJunction:

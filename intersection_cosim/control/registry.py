@@ -105,6 +105,10 @@ def _register_builtin() -> None:
     for name, what in (("nash", "Nash"), ("stackelberg", "Stackelberg")):
         register(name, Entry(lambda settings, jtype, name=name: GameController(name, settings),
                              GameControllerSettings, f"the paper's differential game, {what} equilibrium"))
+        register(f"{name}-coupled", Entry(lambda settings, jtype, name=name: GameController(name, settings, coupling="cluster"),
+                                          GameControllerSettings,
+                                          f"the differential game, {what} equilibrium, one N-player game per conflict "
+                                          "cluster of three or more vehicles"))
     register("sumo-actuated", Entry(lambda settings, jtype: ActuatedController(settings=settings), SignalSettings,
                                     "baseline: SUMO's actuated signal programme from the net's own phases "
                                     "(gap-based extension)", table="signals"))

@@ -21,7 +21,7 @@ from intersection_cosim.network.by_junction import path_junction
 from intersection_cosim.network.conflicts import movement_conflicts
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.results.collision_counts import collision_counts
-from intersection_cosim.results.layout import (APPROACHES_FILE, QUEUES_FILE, COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
+from intersection_cosim.results.layout import (APPROACHES_FILE, QUEUES_FILE, CLUSTER_COLUMNS, COLLISION_LOG_COLUMNS, COLLISION_LOG_FILE, COLLISIONS_FILE, CONVERGENCE_COLUMNS, CONVERGENCE_FILE, GAME_COLUMNS,
                                                GAMES_FILE, PAIRS_FILE, SSM_FILE, STEP_COLUMNS, STEPS_FILE,
                                                TRAJECTORIES_FILE, TRAJECTORIES_GZ, TRAJECTORY_COLUMNS, TRIPINFO_FILE, VEHICLES_FILE,
                                                OVERLAPS_FILE, WALKER_COLUMNS, WALKERS_FILE)
@@ -105,7 +105,7 @@ def write_tables(folder: Path, tables: RunTables, records: Records, diagnostics:
         pd.DataFrame(rows, columns=CONVERGENCE_COLUMNS).to_csv(folder / CONVERGENCE_FILE, index=False,
                                                                float_format="%.6g")
     tables.steps.to_csv(folder / STEPS_FILE, index=False, float_format="%.4f")
-    pd.DataFrame(records.game_rows, columns=GAME_COLUMNS).to_csv(folder / GAMES_FILE, index=False, float_format="%.4f")
+    games_table(records.game_rows, diagnostics.clusters).to_csv(folder / GAMES_FILE, index=False, float_format="%.4f")
     if records.walker_rows:
         pd.DataFrame(records.walker_rows, columns=WALKER_COLUMNS).to_csv(folder / WALKERS_FILE, index=False,
                                                                          float_format="%.4f")
@@ -130,6 +130,24 @@ def vehicle_counts(scn: Scenario, own: int, loaded: int, tripinfo: pd.DataFrame)
     arrived = int(tripinfo["arrival"].ge(0).sum())
     return {"vehicles": int(vehicles), **demand, "departed": departed, "arrived": arrived,
             "not_inserted": int(max(0, vehicles - departed)), "never_arrived": departed - arrived}
+
+
+def games_table(game_rows: list[tuple], clusters: tuple | None) -> pd.DataFrame:
+    """games.csv: GAME_COLUMNS, then CLUSTER_COLUMNS on the rows of pairs that played inside a
+    cluster game (same step, both vehicles members)."""
+    games = pd.DataFrame(game_rows, columns=GAME_COLUMNS)
+    if not clusters:
+        return games
+    by_pair = {}
+    for c in clusters:  # residual and gains in 4 significant digits (a gain of 1e-6 is no 0.0000)
+        info = ("+".join(c.members), len(c.members), c.iterations, f"{c.residual:.4g}", c.status, c.check,
+                f"{c.gain_sampled:.4g}", f"{c.gain_resolve:.4g}")
+        for a in c.members:
+            for b in c.members:
+                by_pair[(c.time, a, b)] = info
+    empty = ("", np.nan, np.nan, np.nan, "", "", np.nan, np.nan)
+    rows = [by_pair.get((t, a, b), empty) for t, a, b in zip(games["time"], games["vehicle_a"], games["vehicle_b"])]
+    return pd.concat([games, pd.DataFrame(rows, columns=CLUSTER_COLUMNS, index=games.index)], axis=1)
 
 
 def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None,

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from intersection_cosim.settings import non_negative, positive
 
 SCHEMES = ("gauss-seidel", "jacobi")
+COUPLINGS = ("pairwise", "cluster")
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,10 @@ class ProblemSettings:
     # 0.02 m/s^2 apart, so the answer depended on the solver's path)
     w_accel_floor: float = 0.01
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
+    # who plays with whom: "pairwise" (the paper's: every triggered pair plays its own two-player
+    # game) or "cluster" (the triggered pairs' connected components of three or more vehicles
+    # each play one N-player game, games/coupled.py; smaller ones still play pairwise)
+    coupling: str = "pairwise"
 
     @property
     def steps(self) -> int:
@@ -58,6 +63,8 @@ class ProblemSettings:
             problems.append(("horizon", "must be a whole number of steps dt"))
         if not self.comfort_brake <= -self.a_min:
             problems.append(("comfort_brake", "must be <= -a_min"))
+        if self.coupling not in COUPLINGS:
+            problems.append(("coupling", f"must be one of {', '.join(COUPLINGS)}"))
         return problems
 
 

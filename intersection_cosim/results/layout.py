@@ -56,6 +56,11 @@ COLLISION_LOG_COLUMNS = ["time", "collider", "victim", "type", "lane", "collider
 CONVERGENCE_COLUMNS = ["time", "vehicle_a", "vehicle_b", "solver", "status", "iteration", "residual"]
 GAME_COLUMNS = ["time", "vehicle_a", "vehicle_b", "junction", "solved"]  # time [s] of the step, the pair that
 # played, where, and whether its game was solved (False: it kept its last equilibrium, control/game/game_reuse.py)
+# games.csv's further columns, set on the rows of a pair that played inside a coupled cluster game
+# (control/game/cluster_games.py; empty / NaN otherwise): the cluster's members joined by "+", its size, the
+# solve's iterations, last residual [m/s^2] and status, the equilibrium check ("pass" / "fail" / "": not
+# checked) and the largest relative gains [-] of a unilateral deviation, sampled and by a best-response re-solve
+CLUSTER_COLUMNS = ["cluster", "size", "iterations", "residual", "status", "check", "gain_sampled", "gain_resolve"]
 # one row per control step and managed junction (its controller's own record)
 STEP_COLUMNS = ["time", "compute_ms", "games", "iterations", "deadline_missed", "fallback", "deferred", "qp_solves",
                 "junction", "skipped"]  # skipped: the junction had nothing to decide (sim.network_scheduler)

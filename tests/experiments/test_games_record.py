@@ -1,8 +1,10 @@
 """games.csv: the pairs that played a game at each control step (Decisions.pairs)."""
 
+import dataclasses
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.scenario import load_scenario, with_overrides
@@ -30,3 +32,22 @@ def test_games_csv_is_empty_for_a_controller_without_games(tmp_path):
     out = tmp_path / "run"
     run_scenario(with_overrides(load_scenario(SCENARIOS / "case1_A.toml"), controller="fcfs"), out)
     assert pd.read_csv(out / "games.csv").empty
+
+
+@pytest.mark.slow
+def test_case1_a_coupled_plays_one_checked_three_player_cluster(tmp_path):
+    """Case 1 A under nash-coupled: the three left turns play one cluster game while they
+    approach, every converged solve passes the N-player check, nobody collides."""
+    out = tmp_path / "run"
+    scn = with_overrides(load_scenario(SCENARIOS / "case1_A.toml"), controller="nash-coupled", budget_ms=2000.0)
+    settings = scn.controller_settings
+    scn = dataclasses.replace(scn, controller_settings=dataclasses.replace(
+        settings, policy=dataclasses.replace(settings.policy, cluster_check=True)))
+    summary = run_scenario(scn, out)
+    games = pd.read_csv(out / "games.csv")
+    clusters = games.dropna(subset=["cluster"]).drop_duplicates("time")
+    assert len(clusters) >= 10 and set(clusters["size"]) == {3}
+    assert set(clusters["cluster"].str.split("+").map(frozenset)) == {frozenset({"V1", "V2", "V3"})}
+    converged = clusters[clusters["status"] == "converged"]
+    assert len(converged) > 0 and (converged["check"] == "pass").all()
+    assert summary["counts"]["arrived"] == 3 and summary["counts"]["collisions"] == 0

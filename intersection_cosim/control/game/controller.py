@@ -44,9 +44,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
-from typing import NamedTuple
-
 import numpy as np
 
 from intersection_cosim.games import budget_clock
@@ -55,8 +52,10 @@ from intersection_cosim.control.base import ControlContext, Decisions, Diagnosti
 from intersection_cosim.control.game.lane_options import LaneChangeCosts, lane_options
 from intersection_cosim.control.game.events import in_force, playing
 from intersection_cosim.control.game.game_reuse import GameReuse
+from intersection_cosim.control.game.cluster_games import ClusterGames, cluster_pairs, split_clusters
 from intersection_cosim.control.game.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
 from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
+from intersection_cosim.control.game.records import Choice, ConvergenceRecord
 from intersection_cosim.control.game.relations import Relations, TriggerHold, step_relations
 from intersection_cosim.control.safety.context import GuardedJunction
 from intersection_cosim.control.safety.filter import SafetyFilter
@@ -76,28 +75,6 @@ from intersection_cosim.network.waiting import waiting_watches
 EQUILIBRIA = {"nash": nash_equilibrium, "stackelberg": stackelberg_equilibrium}
 
 
-@dataclass(frozen=True)
-class ConvergenceRecord:
-    """One game's solve: the data of the paper's Fig. 3."""
-
-    time: float  # [s]
-    vehicle_a: str
-    vehicle_b: str
-    solver: str
-    status: str
-    iterations: int
-    residuals: tuple[float, ...]  # [m/s^2] per iteration
-    costs: tuple[float, ...]  # [-] final cost of each player
-
-
-class Choice(NamedTuple):
-    """One game's (or solo problem's) answer for one vehicle."""
-
-    first_accel: float  # [m/s^2] the plan's first acceleration
-    plan: Plan
-    option: str  # exit lane
-
-
 def combine(choices: list[Choice]) -> Choice:
     """The rule for a vehicle in several games (module docstring, 5): the lowest first
     acceleration (the first such game on ties)."""
@@ -111,10 +88,11 @@ class GameController:
     yields_to_pedestrians = True  # control/safety/pedestrians.py
 
     def __init__(self, equilibrium: str, settings: GameControllerSettings | None = None,
-                 junction_type: str = "priority"):
+                 junction_type: str = "priority", coupling: str | None = None):
         if equilibrium not in EQUILIBRIA:
             raise ValueError(equilibrium)
         self.equilibrium = equilibrium
+        self.coupling = coupling  # overrides [controller.game] coupling (the *-coupled controllers)
         self.settings = settings or GameControllerSettings()
         self.junction_type = junction_type
         self.controlled: set[str] = set()
@@ -133,6 +111,9 @@ class GameController:
     def setup(self, context: ControlContext) -> None:
         if context.settings is not None:
             self.settings = context.settings
+        if self.coupling is not None:
+            self.settings = dataclasses.replace(self.settings, game=dataclasses.replace(self.settings.game,
+                                                                                        coupling=self.coupling))
         game = self.settings.game
         self.ctx, self.model, self.paths = context, context.model, context.paths
         self.table = movement_conflict_table(context.movements, context.model.vehicle_width,
@@ -146,6 +127,8 @@ class GameController:
         lane_costs = LaneChangeCosts(context.movements, context.model)
         self.solver = GameSolver(EQUILIBRIA[self.equilibrium], self.equilibrium, self.settings.games, self.model,
                                  lane_costs, context.movements, _capped(self.settings))
+        self.clusters = (ClusterGames(self.equilibrium, self.solver, self.memory, self.settings.policy.cluster_check)
+                         if game.coupling == "cluster" else None)
         self.solo = SoloPlanner(self.settings, self.model, self.memory, lane_costs, context.movements)
         self.reuse = GameReuse(self.settings.policy, self.memory, context.model.v_max)
         waits = {pid: (context.paths[pid].s_wait, lanes) for pid, lanes in waiting_watches(context.movements).items()}
@@ -173,7 +156,7 @@ class GameController:
 
     def diagnostics(self) -> Diagnostics:
         return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared,
-                           self.safety.pedestrian_holds)
+                           self.safety.pedestrian_holds, self.clusters.rows() if self.clusters is not None else None)
 
     # ------------------------------------------------------------------ one step
     def decide(self, world: World, deadline: float) -> Decisions:
@@ -253,6 +236,8 @@ class GameController:
         ``cutoff`` is deferred (its vehicles keep their last plans, shifted)."""
         in_game: dict[int, list[Choice]] = {}
         games = pair_games(relations, options)
+        if self.clusters is not None:
+            games = self._play_clusters(world, games, relations, options, cutoff, decisions, in_game)
         for game in sorted(games.values(), key=lambda g: urgency(world, g, self.model.tcp_speed_floor)):
             ka, kb = game.a, game.b
             problems, warm = game_problems(world, game, options, relations, self.memory)
@@ -275,6 +260,30 @@ class GameController:
             for k, plan, option in ((ka, result.plans[0], choice[0]), (kb, result.plans[1], choice[1])):
                 in_game.setdefault(k, []).append(Choice(float(plan.accelerations[0]), plan, option))
         return in_game
+
+    def _play_clusters(self, world: World, games: dict, relations: Relations, options, cutoff: float,
+                       decisions: Decisions, in_game: dict[int, list[Choice]]) -> dict:
+        """The coupled game of every cluster of three or more vehicles, most urgent first
+        (control/game/cluster_games.py); returns the pair games outside them."""
+        clusters, rest = split_clusters(games)
+        floor, ids = self.model.tcp_speed_floor, world.ids
+        for members in sorted(clusters, key=lambda c: min(urgency(world, games[p], floor) for p in cluster_pairs(c, games))):
+            out = self.clusters.play(world, members, games, options, relations, cutoff)
+            if out is None:  # would not fit: its vehicles keep their plans
+                decisions.deferred += 1
+                for k in members:
+                    in_game.setdefault(k, []).append(self._kept_choice(world, k))
+                continue
+            order, result, exits = out
+            decisions.games += 1
+            decisions.iterations += result.iterations
+            decisions.pairs.extend((ids[a], ids[b]) for a, b in cluster_pairs(members, games))
+            self.convergence.append(ConvergenceRecord(
+                world.time, ids[order[0]], "+".join(ids[k] for k in order[1:]), self.equilibrium, result.status,
+                result.iterations, tuple(float(r) for r in result.residuals), tuple(float(c) for c in result.costs)))
+            for k, plan in zip(order, result.plans):
+                in_game.setdefault(k, []).append(Choice(float(plan.accelerations[0]), plan, exits[k]))
+        return rest
 
     def _keep_game(self, world: World, game: PairGame, plans: tuple, choice: tuple, in_game: dict,
                    decisions: Decisions) -> None:

@@ -70,6 +70,12 @@ class PolicySettings:
     #                               (their vehicles keep their last plan, shifted); see decision
     #                               record 012
 
+    # check every converged cluster game (ProblemSettings.coupling = "cluster") for unilateral
+    # deviations (games/coupled_check.py) and record the result in games.csv; the checks run when
+    # the run's diagnostics are collected, after the loop, outside the step budget (they take
+    # 10-100 times a solve)
+    cluster_check: bool = False
+
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
         problems += non_negative(self, "game_max_iter", "solo_leader_tol", "solo_speed_tol", "solo_position_tol",
