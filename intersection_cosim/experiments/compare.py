@@ -192,8 +192,7 @@ def aggregate(spec: SweepSpec, out: Path, demand: float) -> list[dict]:
     points = list(dict.fromkeys(j.axes for j in jobs))  # the scenario axes' value combinations, grid order
     for controller, point in ((c, p) for c in spec.controllers for p in points):
         mine = [j for j in jobs if j.controller == controller and j.axes == point and j.finished]
-        veh, steps, ssm = [], [], []
-        window = 0.0
+        veh, steps, ssm, window = [], [], [], 0.0  # window: [s] the demand windows summed
         vehicles = arrived = collisions = walkers_hit = late = ended = 0
         for job in mine:
             run = Path(job.run_dir)
