@@ -22,6 +22,7 @@ import tokenize
 from pathlib import Path
 
 from intersection_cosim.control.baselines.reservations import FcfsSettings
+from intersection_cosim.control.baselines.signal_settings import SignalSettings
 from intersection_cosim.control.game.settings import PolicySettings
 from intersection_cosim.control.safety.onboard import OnboardSettings
 from intersection_cosim.control.safety.settings import SafetySettings
@@ -48,6 +49,7 @@ TABLES = (
     ("[controller.policy]", PolicySettings, "the nash and stackelberg controllers"),
     ("[controller.safety]", SafetySettings, "the nash and stackelberg controllers"),
     ("[controller.solver] of fcfs", FcfsSettings, "the fcfs controller"),
+    ("[controller.signals]", SignalSettings, "the signal baselines sumo-actuated and max-pressure"),
     ("[model]", ModelSettings, "the game controllers' model (potential field, costs, vehicle)"),
     ("[network]", NetworkSettings, "every run"),
     ("[human]", HumanDriverSettings, "every human-driven vehicle"),

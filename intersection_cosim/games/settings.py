@@ -44,10 +44,9 @@ class ProblemSettings:
     # 0.02 m/s^2 apart, so the answer depended on the solver's path)
     w_accel_floor: float = 0.01
     w_jerk: float = 0.0005  # [s^6/m^2] weight of the squared jerk inside the plan
-    # who plays with whom: "pairwise" (the paper's: every triggered pair plays its own two-player
-    # game) or "cluster" (the triggered pairs' connected components of three or more vehicles
-    # each play one N-player game, games/coupled.py; smaller ones still play pairwise)
-    coupling: str = "pairwise"
+    coupling: str = "pairwise"  # [-] who plays with whom: "pairwise" (the paper's: every triggered pair
+    #                              plays its own two-player game) or "cluster" (each connected group of
+    #                              three or more triggered vehicles plays one N-player game, games/coupled.py)
 
     @property
     def steps(self) -> int:

@@ -70,11 +70,9 @@ class PolicySettings:
     #                               (their vehicles keep their last plan, shifted); see decision
     #                               record 012
 
-    # check every converged cluster game (ProblemSettings.coupling = "cluster") for unilateral
-    # deviations (games/coupled_check.py) and record the result in games.csv; the checks run when
-    # the run's diagnostics are collected, after the loop, outside the step budget (they take
-    # 10-100 times a solve)
-    cluster_check: bool = False
+    cluster_check: bool = False  # [-] check every converged cluster game for unilateral deviations
+    #                               (games/coupled_check.py) into games.csv; after the loop, outside
+    #                               the step budget (a check takes 10-100 times a solve)
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "free_resolve_steps", "game_resolve_steps", "solo_max_iter", "lane_choice_period")
