@@ -32,13 +32,14 @@ from intersection_cosim.scenario.model import (
     VehicleSpec,
     VehicleType,
 )
+from intersection_cosim.scenario.stress_settings import stress_settings
 from intersection_cosim.scenario.network import net_of, network_settings, route_file_ids
 from intersection_cosim.scenario.values import choice, number, unknown_keys
 from intersection_cosim.scenario.vtypes import referenced, route_file_vtypes, vtypes_of, with_vtype_defaults
 from intersection_cosim.settings import from_table
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
-TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "vehicle", "flow", "v2x")
+TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "vehicle", "flow", "v2x", "stress")
 CONTROLLER_TABLES = ("game", "solver", "policy", "safety")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed", "driver", "vtype")
@@ -222,6 +223,7 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path
     vtypes = vtypes_of(src, data.get("vtype"), route_types)
     vehicles, flows = _demand(src, data, scen, model, network, vtypes)
     v2x = _v2x(src, data.get("v2x"), vehicles, flows, network)
+    stress_settings(src, data.get("stress"))  # read only by ``stress``; checked here so a typo is an error
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
                     controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network,
                     v2x=v2x, human=human, vtypes=vtypes)
