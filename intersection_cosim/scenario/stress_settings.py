@@ -24,7 +24,8 @@ AXIS_DEFAULTS: dict[str, tuple[tuple[float, float] | None, str, str]] = {
     "av_share": ((0.5, 1.0), "-", "every flow's av_share"),
     "kappa_center": ((0.1, 0.9), "-", "centre of every flow's uniform kappa draw"),
     "kappa_spread": ((0.0, 0.4), "-", "width of every flow's uniform kappa draw"),
-    "insertion_speed": ((5.0, 13.89), "m/s", "every flow's insertion speed"),
+    "insertion_speed": ((4.0, 10.0), "m/s", "every flow's insertion speed (capped at its vType's maximum speed "
+                        "and the first edge's limit)"),
     "latency": ((0.0, 0.3), "s", "v2x.latency"),
     "loss": ((0.0, 0.2), "-", "v2x.loss"),
     "position_noise": ((0.0, 1.0), "m", "v2x.position_noise"),

@@ -82,11 +82,17 @@ def base_data(data: dict, scn: Scenario, source: Path) -> dict:
 
 
 def _speed_limits(scn: Scenario) -> dict[str, float]:
-    """[m/s] the speed limit where each flow's vehicles are inserted (none on the generated net)."""
-    if scn.network.file is None:
-        return {}
-    net = read_net(scn.network.file)
-    return {f.id: net.getEdge(f.route[0]).getSpeed() for f in scn.flows if f.route}
+    """[m/s] the highest insertion speed of each flow's vehicles: their vType's maximum speed (the
+    model's v_max unless their [[vtype]] sets one) and, on a net file, the first edge's limit."""
+    net = read_net(scn.network.file) if scn.network.file is not None else None
+    limits = {}
+    for f in scn.flows:
+        vt = scn.vtype(f.vtype)
+        limit = vt.max_speed if vt is not None and vt.max_speed is not None else scn.model.v_max
+        if net is not None and f.route:
+            limit = min(limit, net.getEdge(f.route[0]).getSpeed())
+        limits[f.id] = limit
+    return limits
 
 
 def _flows(data: dict, scn: Scenario, draw: dict[str, float], duration: float) -> list[dict]:
@@ -105,7 +111,7 @@ def _flows(data: dict, scn: Scenario, draw: dict[str, float], duration: float) -
         if "av_share" in draw:
             t["av_share"] = draw["av_share"]
         if "insertion_speed" in draw:
-            t["speed"] = round(min(draw["insertion_speed"], limits.get(spec.id, np.inf)), DECIMALS)
+            t["speed"] = round(min(draw["insertion_speed"], limits[spec.id]), DECIMALS)
         if f"vtype.{spec.id}" in draw and vtypes:
             t["vtype"] = vtypes[min(int(draw[f"vtype.{spec.id}"] * len(vtypes)), len(vtypes) - 1)]
         flows.append(t)

@@ -23,15 +23,15 @@ import tomllib
 from pathlib import Path
 
 from intersection_cosim.errors import InputError
+from intersection_cosim.results.layout import STRESS_SPEC_FILE, STRESS_SUMMARY_FILE, STRESS_TABLE_FILE
 from intersection_cosim.experiments.stress.draws import Param, base_data, space
 from intersection_cosim.experiments.stress.search import SEARCHES
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.scenario.set_option import apply_sets, read_data, validated
 from intersection_cosim.scenario.stress_settings import StressSettings, stress_settings
 
-STRESS_SPEC_FILE = "stress.json"
-STRESS_TABLE_FILE = "stress.csv"
-SUMMARY_FILE = "summary.json"
+SUMMARY_FILE = STRESS_SUMMARY_FILE
+__all__ = ["STRESS_SPEC_FILE", "STRESS_TABLE_FILE", "SUMMARY_FILE", "StressSpec", "Prepared", "prepare", "check_out"]
 MAX_RUNS = 100_000  # [-] runs one search may ask for
 
 
