@@ -159,6 +159,7 @@ def _add_sweep(sub) -> None:
                        "--controller is the old spelling)")
     sweep.add_argument("--seeds", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: the scenario's)")
     sweep.add_argument("--out", required=True, help="sweep folder; rerunning the same command skips finished runs")
+    _add_set_option(sweep)
     _add_axis_options(sweep)
     _add_executor_options(sweep)
 
@@ -177,6 +178,7 @@ def _add_compare(sub) -> None:
                          "(the same results on any machine and load)")
     compare.add_argument("--out", required=True, help="comparison folder; rerunning the same command skips "
                          "finished runs")
+    _add_set_option(compare)
     _add_axis_options(compare)
     _add_executor_options(compare)
 
@@ -312,7 +314,7 @@ def _interruptible(start) -> int:
 def _cmd_sweep(args) -> int:
     from intersection_cosim.experiments.sweep import make_spec, run_sweep
 
-    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds, axes=_axes(args))
+    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds, axes=_axes(args), sets=args.sets)
     return _interruptible(lambda: run_sweep(spec, args.out, workers=args.workers,
                                             dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 
@@ -321,7 +323,7 @@ def _cmd_compare(args) -> int:
     from intersection_cosim.experiments.compare import make_specs, run_compare
 
     specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration, args.budget_ms, axes=_axes(args),
-                       work_clock_ms=args.work_clock)
+                       work_clock_ms=args.work_clock, sets=args.sets)
     return _interruptible(lambda: run_compare(specs, args.out, workers=args.workers,
                                               dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 

@@ -24,7 +24,7 @@ from intersection_cosim.experiments.stress.outputs import write_outputs
 from intersection_cosim.experiments.stress.runs import clean_leftovers, make_job, run_batch, verdict, write_atomic
 from intersection_cosim.experiments.stress.search import cem_fit, generations, propose, to_unit
 from intersection_cosim.experiments.stress.spec import STRESS_SPEC_FILE, STRESS_TABLE_FILE, Prepared, check_out
-from intersection_cosim.experiments.sweep import _locked
+from intersection_cosim.experiments.sweep import locked_folder
 
 DRAWS_DIR = "draws"
 
@@ -111,7 +111,7 @@ def run_stress(prep: Prepared, out: str | Path, *, workers: int | None = None, d
     check_out(prep.spec, out)
     with open_executor(workers, dask_scheduler) as executor:
         _start(prep, out)
-        with _locked(out):
+        with locked_folder(out):
             check_out(prep.spec, out)
             write_atomic(out / STRESS_SPEC_FILE, json.dumps(prep.spec.to_dict(), indent=2) + "\n")
             clean_leftovers(out)
