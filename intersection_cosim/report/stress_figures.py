@@ -34,7 +34,8 @@ def margin_figure(table: pd.DataFrame, params: list[dict], out_png: Path) -> Pat
     fig, axes = _grid(len(params))
     failed = table["failures"].fillna("").astype(str) != ""
     for ax, p in zip(axes, params):
-        ax.scatter(table.loc[~failed, p["name"]], table.loc[~failed, "margin"], s=12, color="tab:blue", label="no failure")
+        ax.scatter(table.loc[~failed, p["name"]], table.loc[~failed, "margin"], s=12, color="tab:blue",
+                   label="no failure")
         ax.scatter(table.loc[failed, p["name"]], table.loc[failed, "margin"], s=14, color="tab:red", marker="x",
                    label="failure")
         ax.set_xlabel(p["name"], fontsize=8)
@@ -47,7 +48,8 @@ def margin_figure(table: pd.DataFrame, params: list[dict], out_png: Path) -> Pat
     return save_figure(fig, out_png)
 
 
-def bin_counts(values: pd.Series, failed: pd.Series, low: float, high: float, bins: int = BINS) -> tuple[np.ndarray, np.ndarray]:
+def bin_counts(values: pd.Series, failed: pd.Series, low: float, high: float,
+               bins: int = BINS) -> tuple[np.ndarray, np.ndarray]:
     """(runs, runs with a failure) per equal-width bin of [``low``, ``high``]."""
     edges = np.linspace(low, high, bins + 1) if high > low else np.array([low - 0.5, low + 0.5])
     idx = np.clip(np.searchsorted(edges, values.to_numpy(float), side="right") - 1, 0, len(edges) - 2)

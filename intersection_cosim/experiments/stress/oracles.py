@@ -127,7 +127,8 @@ def _lock_and_stuck(folder: Path, summary: dict, traj: pd.DataFrame, stuck_time:
     if len(stuck) and when:
         first = min(when, key=lambda v: (when[v], v))
         where = last.set_index("vehicle")["lane"].get(first, "")
-        out.append(Failure("never_arrived", when[first], str(where), tuple(sorted(when, key=lambda v: (when[v], v)))[:8],
+        order = tuple(sorted(when, key=lambda v: (when[v], v)))[:8]
+        out.append(Failure("never_arrived", when[first], str(where), order,
                            f"{len(when)} departed vehicles never arrived: they stood still for the last "
                            f"{stuck_time:g} s or more of the run; {first} from t={when[first]:.1f} s on {where}"))
     return out

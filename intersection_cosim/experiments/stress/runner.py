@@ -61,7 +61,8 @@ def _fit(prep: Prepared, out: Path, previous: range):
     for i in previous:
         v = verdict(out, run_id(i), prep.settings)
         if v is not None:
-            units.append(to_unit(prep.spec.params, json.loads((out / DRAWS_DIR / f"{run_id(i)}.json").read_text())["draw"]))
+            drawn = json.loads((out / DRAWS_DIR / f"{run_id(i)}.json").read_text())
+            units.append(to_unit(prep.spec.params, drawn["draw"]))
             margins.append(v.margin)
     if not units:
         return None
