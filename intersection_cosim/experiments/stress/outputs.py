@@ -56,17 +56,14 @@ def stress_table(prep: Prepared, out: Path) -> tuple[pd.DataFrame, list[tuple]]:
 
 
 def _still_fails(found: Found, data: dict, v) -> Found | None:
-    """``found`` moved to a shrunk scenario whose verdict ``v`` shows the same kind (None: not)."""
-    same = [f for f in v.failures if f.kind == found.key[0]]
-    if not same:
-        return None
-    best = next((f for f in same if f.site == found.key[1]), same[0])
-    return Found(found.key, found.run_id, best, data, found.runs)
+    """``found`` moved to a shrunk scenario whose verdict ``v`` shows the same kind at the same
+    place (None: it does not)."""
+    same = [f for f in v.failures if (f.kind, f.site) == found.key]
+    return Found(found.key, found.run_id, same[0], data, found.runs) if same else None
 
 
-def _shrink_one(prep: Prepared, out: Path, executor, found: Found, bar) -> Found:
-    """The smallest of ``found``'s shrink candidates that still fails alike (``found`` if none)."""
-    folder = out / SHRINK_DIR
+def _candidates(prep: Prepared, out: Path, found: Found) -> list[tuple]:
+    """(job, scenario dict) of each valid shrink candidate of ``found``."""
     jobs = []
     for n, data in enumerate(shrink_candidates(found.data, found.failure, prep.settings.shrink_pad,
                                                prep.settings.shrink_attempts)):
@@ -75,36 +72,48 @@ def _shrink_one(prep: Prepared, out: Path, executor, found: Found, bar) -> Found
         except InputError:
             continue  # e.g. an attack on a vehicle of a dropped flow
         rid = file_name(found.key).removesuffix(".toml") + f"-{n}"
-        jobs.append((make_job(folder, rid, data, f"shrink attempt {n} of {file_name(found.key)}"), data))
-    run_batch(executor, [j for j, _ in jobs], folder, prep.settings, bar)
+        jobs.append((make_job(out / SHRINK_DIR, rid, data, f"shrink attempt {n} of {file_name(found.key)}"), data))
+    return jobs
+
+
+def _smallest(prep: Prepared, out: Path, found: Found, jobs: list[tuple]) -> Found:
+    """The smallest of ``found``'s finished candidates that still fails alike (``found`` if none)."""
     best = found
     for job, data in jobs:
-        v = verdict(folder, job.run_id, prep.settings)
+        v = verdict(out / SHRINK_DIR, job.run_id, prep.settings)
         moved = _still_fails(found, data, v) if v is not None else None
         if moved is not None and size(data) < size(best.data):
             best = moved
     return best
 
 
-def _failure_files(prep: Prepared, out: Path, finished: list[tuple], executor, shrink: bool, command: str,
-                   progress: bool) -> list[dict]:
+def _shrunk(prep: Prepared, out: Path, executor, found: list[Found], progress: bool) -> list[Found]:
+    """Every failure of ``found`` shrunk: all their candidates run as one batch, then each keeps its smallest."""
     from tqdm import tqdm
 
-    found = dedup(finished)
-    bar = tqdm(total=0, unit="run", desc="shrink", file=sys.stderr, disable=not (progress and shrink and found),
+    jobs = [_candidates(prep, out, fd) for fd in found]
+    total = sum(len(j) for j in jobs)
+    bar = tqdm(total=total, unit="run", desc="shrink", file=sys.stderr, disable=not (progress and total),
                dynamic_ncols=True)
-    listed = []
     try:
-        for fd in found:
-            small = _shrink_one(prep, out, executor, fd, bar) if shrink else fd
-            path = write_failure(out / FAILURES_DIR, small, command)
-            f = small.failure
-            listed.append({"file": str(path.relative_to(out)), "kind": f.kind, "place": small.key[1],
-                           "time": f.time, "lane": f.place, "vehicles": list(f.vehicles), "why": f.why,
-                           "found_by": fd.run_id, "runs": fd.runs, "shrunk": small is not fd,
-                           "flows": size(small.data)[0], "duration": size(small.data)[1]})
+        run_batch(executor, [job for js in jobs for job, _ in js], out / SHRINK_DIR, prep.settings, bar)
     finally:
         bar.close()
+    return [_smallest(prep, out, fd, js) for fd, js in zip(found, jobs)]
+
+
+def _failure_files(prep: Prepared, out: Path, finished: list[tuple], executor, shrink: bool, command: str,
+                   progress: bool) -> list[dict]:
+    found = dedup(finished)
+    small = _shrunk(prep, out, executor, found, progress) if shrink and found else found
+    listed = []
+    for fd, sm in zip(found, small):
+        path = write_failure(out / FAILURES_DIR, sm, command)
+        f = sm.failure
+        listed.append({"file": str(path.relative_to(out)), "kind": f.kind, "place": sm.key[1],
+                       "time": f.time, "lane": f.place, "vehicles": list(f.vehicles), "why": f.why,
+                       "found_by": fd.run_id, "runs": fd.runs, "shrunk": sm is not fd,
+                       "flows": size(sm.data)[0], "duration": size(sm.data)[1]})
     return listed
 
 
