@@ -7,6 +7,7 @@ A stress folder::
     stress.csv              one row per run: drawn parameters, margin, failures, arrivals, compute
     summary.json            the search's counts, smallest margin and failure files
     scenarios/<run id>.toml the scenario each run ran (every drawn value written out)
+    draws/<run id>.json     its scenario seed, generation and drawn parameters
     runs/<run id>/          the run folders (written atomically); failed/<run id>.json a crash
     verdicts/<run id>.json  each finished run's verdict (experiments/stress/oracles.py)
     shrink/                 the scenarios, runs and verdicts of --shrink's attempts
