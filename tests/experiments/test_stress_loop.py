@@ -20,7 +20,8 @@ CONTROL_PERIOD = 0.1  # [s] the scenario's control period
 def test_stress_finds_a_collision_without_the_safety_filter_and_its_file_replays_it(tmp_path):
     out = tmp_path / "stress"
     args = ["stress", str(SCENARIO), "--runs", "2", "--duration", "30", "--workers", "1", "--no-shrink",
-            "--no-progress", "--out", str(out), "--set", "controller.safety.enabled=false"]
+            "--no-progress", "--out", str(out), "--set", "controller.safety.enabled=false",
+            "--set", "stress.demand_scale=[1.8, 2.0]"]
     assert main(args) == 0
     summary = json.loads((out / "summary.json").read_text())
     table = pd.read_csv(out / "stress.csv")
