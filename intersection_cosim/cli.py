@@ -27,6 +27,9 @@ examples:
       one run per kappa value of V2 (add --controllers nash,stackelberg,sumo to compare)
   intersection-cosim compare scenarios/demand_balanced_low.toml --seeds 1-3 --out compare/low
       every controller over seeds under random demand: delay, safety, compute time
+  intersection-cosim stress scenarios/demand_balanced_high.toml --runs 40 --duration 120 --out stress/high
+      40 seeded variants of a scenario judged for collisions, locks and near misses (--search cem: adversarial);
+      each failure becomes a scenario file in stress/high/failures/ that 'run' replays
   intersection-cosim report sweeps/V2
       figures and report.md of a run or sweep folder (a kappa sweep: kappa_tradeoff_<V>.png)
   intersection-cosim animate runs/case1_A
@@ -88,6 +91,16 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 0")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="intersection-cosim", description=DESCRIPTION, epilog=EXAMPLES,
                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -126,9 +139,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--gui-delay", type=_non_negative_float, default=50.0, metavar="MS",
                      help="[ms] sumo-gui's pause per SUMO step with --gui (default 50: about real time)")
 
+    _add_set_option(run)
     _add_sweep(sub)
     _add_compare(sub)
     _add_benchmark(sub)
+    _add_stress(sub)
     report = sub.add_parser("report", help="figures and report.md of a run or a sweep folder (compare writes its own)")
     report.add_argument("folder", help="a run folder (holds summary.json) or a sweep folder (holds sweep.json)")
     _add_animate(sub)
@@ -146,6 +161,7 @@ def _add_sweep(sub) -> None:
                        "--controller is the old spelling)")
     sweep.add_argument("--seeds", help="seeds: 1-5, 1,3,7 or 1-3,7 (default: the scenario's)")
     sweep.add_argument("--out", required=True, help="sweep folder; rerunning the same command skips finished runs")
+    _add_set_option(sweep)
     _add_axis_options(sweep)
     _add_executor_options(sweep)
 
@@ -164,6 +180,7 @@ def _add_compare(sub) -> None:
                          "(the same results on any machine and load)")
     compare.add_argument("--out", required=True, help="comparison folder; rerunning the same command skips "
                          "finished runs")
+    _add_set_option(compare)
     _add_axis_options(compare)
     _add_executor_options(compare)
 
@@ -215,6 +232,31 @@ def _add_executor_options(parser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
+def _add_set_option(parser) -> None:
+    parser.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE", dest="sets",
+                        help="set one scenario-file setting, e.g. controller.safety.time_gap=0.3 (repeatable; "
+                        "checked like the file)")
+
+
+def _add_stress(sub) -> None:
+    stress = sub.add_parser("stress", help="search a scenario's variants for collisions, locks and near misses; "
+                            "each failure becomes a scenario file that replays it")
+    stress.add_argument("scenario", help="scenario file (TOML); its [stress] table sets the axes and ranges")
+    stress.add_argument("--runs", type=_positive_int, required=True, help="how many runs (variants) to draw")
+    stress.add_argument("--seed", type=_non_negative_int, default=0, help="the search's seed (default 0)")
+    stress.add_argument("--duration", type=_positive_float, help="[s] every run's demand window (default: the scenario's)")
+    stress.add_argument("--search", choices=("random", "cem"), default="random",
+                        help="random: seeded uniform draws (default); cem: a cross-entropy search towards the "
+                        "smallest margin")
+    stress.add_argument("--out", help="stress folder (default: stress/<scenario name>); rerunning the same "
+                        "command skips finished runs")
+    stress.add_argument("--shrink", action=argparse.BooleanOptionalAction, default=True,
+                        help="try shorter windows and fewer flows that still fail; keep the smallest (default: on)")
+    _add_set_option(stress)
+    _add_executor_options(stress)
+    stress.add_argument("--dask", dest="dask_scheduler", metavar="ADDRESS", help=argparse.SUPPRESS)
+
+
 def _add_animate(sub) -> None:
     animate = sub.add_parser("animate", help="a GIF or MP4 of a run, drawn from its run folder")
     animate.add_argument("run_dir", help="a run folder (holds summary.json)")
@@ -255,9 +297,10 @@ def _cmd_net(args) -> int:
 
 def _cmd_run(args) -> int:
     from intersection_cosim.experiments.run import run_scenario
-    from intersection_cosim.scenario import load_scenario, with_overrides
+    from intersection_cosim.scenario import with_overrides
+    from intersection_cosim.scenario.set_option import load_with_sets
 
-    scn = load_scenario(args.scenario)
+    scn = load_with_sets(args.scenario, args.sets)
     scn = with_overrides(scn, controller=args.controller, seed=args.seed, budget_ms=args.budget_ms,
                          work_clock_ms=args.work_clock, etm=False if args.no_etm else None, realtime=True if args.realtime else None)
     out = Path(args.out) if args.out else Path("runs") / f"{scn.scenario.name}-{scn.controller.kind}-seed{scn.scenario.seed}"
@@ -303,7 +346,7 @@ def _interruptible(start) -> int:
 def _cmd_sweep(args) -> int:
     from intersection_cosim.experiments.sweep import make_spec, run_sweep
 
-    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds, axes=_axes(args))
+    spec = make_spec(args.scenario, args.kappa, args.controllers, args.seeds, axes=_axes(args), sets=args.sets)
     return _interruptible(lambda: run_sweep(spec, args.out, workers=args.workers,
                                             dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
 
@@ -312,9 +355,20 @@ def _cmd_compare(args) -> int:
     from intersection_cosim.experiments.compare import make_specs, run_compare
 
     specs = make_specs(args.scenario, args.controllers, args.seeds, args.duration, args.budget_ms, axes=_axes(args),
-                       work_clock_ms=args.work_clock)
+                       work_clock_ms=args.work_clock, sets=args.sets)
     return _interruptible(lambda: run_compare(specs, args.out, workers=args.workers,
                                               dask_scheduler=args.dask_scheduler, progress=not args.no_progress))
+
+
+def _cmd_stress(args) -> int:
+    from intersection_cosim.experiments.stress.runner import run_stress
+    from intersection_cosim.experiments.stress.spec import prepare
+
+    prep = prepare(args.scenario, args.runs, args.seed, args.search, args.duration, args.sets)
+    out = args.out or str(Path("stress") / prep.spec.scenario_name)
+    command = " ".join(["intersection-cosim", *sys.argv[1:]]) if sys.argv[1:2] == ["stress"] else "stress"
+    return _interruptible(lambda: run_stress(prep, out, workers=args.workers, dask_scheduler=args.dask_scheduler,
+                                             progress=not args.no_progress, shrink=args.shrink, command=command))
 
 
 def _cmd_report(args) -> int:
@@ -332,7 +386,7 @@ def _cmd_animate(args) -> int:
 
 
 COMMANDS = {"net": _cmd_net, "run": _cmd_run, "sweep": _cmd_sweep, "compare": _cmd_compare, "benchmark": _cmd_benchmark,
-            "report": _cmd_report, "animate": _cmd_animate, "junctions": _cmd_junctions}
+            "stress": _cmd_stress, "report": _cmd_report, "animate": _cmd_animate, "junctions": _cmd_junctions}
 
 
 def main(argv: list[str] | None = None) -> int:

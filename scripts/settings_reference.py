@@ -34,6 +34,7 @@ from intersection_cosim.scenario.flows import FLOW_KEYS
 from intersection_cosim.scenario.load import VEHICLE_KEYS
 from intersection_cosim.scenario.model import (ControllerSettings, HumanDriverSettings, NetworkSettings,
                                                ScenarioSettings, VehicleType)
+from intersection_cosim.scenario.stress_settings import StressSettings
 from intersection_cosim.sim.gui import GuiSettings
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
@@ -55,6 +56,7 @@ TABLES = (
     ("[human]", HumanDriverSettings, "every human-driven vehicle"),
     ("[[vtype]]", VehicleType, "each vehicle type"),
     ("[v2x]", V2XSettings, "every run (defaults: perfect information)"),
+    ("[stress]", StressSettings, "the stress command: the ranges it draws scenario variants from"),
     ("[[v2x.attack]]", AttackSettings, "each attack on the V2X link"),
     ("intersection-cosim animate", AnimationSettings, "the animation (command-line options, not a scenario table)"),
     ("intersection-cosim run --gui", GuiSettings, "the live sumo-gui view (not a scenario table)"),

@@ -109,7 +109,8 @@ class CompareOutcome:
 
 def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLERS, seeds: str = "1-5",
                duration: float | None = None, budget_ms: float | None = None,
-               axes: dict[str, str | None] | None = None, work_clock_ms: float | None = None) -> list[SweepSpec]:
+               axes: dict[str, str | None] | None = None, work_clock_ms: float | None = None,
+               sets: list[str] | None = None) -> list[SweepSpec]:
     """One sweep spec per scenario; every input checked (InputError) before any run starts.
     ``duration`` [s], ``budget_ms`` [ms] and ``work_clock_ms`` [ms per QP] override every run's."""
     if not scenarios:
@@ -120,7 +121,7 @@ def make_specs(scenarios: list[str | Path], controllers: str = DEFAULT_CONTROLLE
         raise InputError("--controllers", "controllers", controllers, exc.problem) from None
     overrides = {k: v for k, v in (("duration", duration), ("budget_ms", budget_ms), ("work_clock_ms", work_clock_ms))
                  if v is not None}
-    specs = [make_spec(s, None, controllers, seeds, overrides, axes) for s in scenarios]
+    specs = [make_spec(s, None, controllers, seeds, overrides, axes, sets) for s in scenarios]
     names = [s.scenario_name for s in specs]
     for name in names:
         if names.count(name) > 1:

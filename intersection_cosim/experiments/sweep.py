@@ -27,6 +27,7 @@ import re
 import shutil
 import sys
 import time
+import tomllib
 from concurrent.futures import as_completed
 from pathlib import Path
 
@@ -39,8 +40,10 @@ from intersection_cosim.experiments.executors import (OVERRIDE_TABLES, Job, exec
                                                       write_failure)
 from intersection_cosim.results.layout import FAILED_DIR, RUNS_DIR, SPEC_FILE, TABLE_FILE, failure_file, run_folder
 from intersection_cosim.results.sweep_folder import DECIMALS, SweepSpec, load_spec, safe_name, sweep_table
+from intersection_cosim.experiments.stress.toml_text import dumps
 from intersection_cosim.results.units import write_units
 from intersection_cosim.scenario import load_scenario
+from intersection_cosim.scenario.set_option import apply_sets, validated
 
 LOCK_FILE = ".sweep.lock"
 MAX_VALUES = 10_000  # [-] values one --kappa spec may expand to
@@ -150,8 +153,11 @@ def parse_controllers(text: str) -> tuple[str, ...]:
 
 def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers: str | None = None,
               seeds: str | None = None, overrides: dict[str, float] | None = None,
-              axes: dict[str, str | None] | None = None) -> SweepSpec:
+              axes: dict[str, str | None] | None = None, sets: list[str] | None = None) -> SweepSpec:
     """Validate the command line's sweep spec against the scenario; raise InputError before any run.
+
+    ``sets``: ``--set TABLE.KEY=VALUE`` options (scenario/set_option.py), written into the text the
+    runs run (and so into the sweep's identity).
 
     ``overrides``: [scenario] / [controller] fields set for every run (``executors.OVERRIDE_TABLES``), e.g.
     ``{"duration": 60.0, "budget_ms": 20.0}``; part of the sweep's identity. ``axes``: the scenario
@@ -160,6 +166,10 @@ def make_spec(scenario: str | Path, kappa: list[str] | None = None, controllers:
     path = Path(scenario)
     scn = load_scenario(path)
     text = path.read_text()  # load_scenario has checked it is readable UTF-8
+    if sets:
+        data = apply_sets(tomllib.loads(text), sets)
+        scn = validated(data, str(path), sets)
+        text = dumps(data, f"{path.name} with --set {' '.join(sets)}")
     vids = [v.id for v in scn.vehicles]
     grid = parse_kappa(kappa, vids)
     safe = [safe_name(v) for v in grid]
@@ -238,9 +248,9 @@ def _clean_leftovers(out: Path) -> None:
 
 
 @contextlib.contextmanager
-def _locked(out: Path):
-    """Hold ``out``'s lock file while the sweep writes; remove it when done (a finished sweep
-    leaves no lock behind). A sweep that opened the file just before another removed it finds
+def locked_folder(out: Path):
+    """Hold ``out``'s lock file while a sweep (or a stress search) writes; remove it when done (a
+    finished sweep leaves no lock behind). A sweep that opened the file just before another removed it finds
     its inode gone from the folder and is refused like any concurrent sweep."""
     try:
         import fcntl
@@ -312,7 +322,7 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None, d
             out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise InputError("--out", "out", str(out), f"cannot be written ({exc.strerror})") from None
-        with _locked(out):
+        with locked_folder(out):
             check_out(spec, out)  # again, now that we hold the lock
             _write_atomic(out / SPEC_FILE, json.dumps(spec.to_dict(), indent=2) + "\n")
             warning = kappa_warning(spec)  # once, after every input check passed

@@ -24,9 +24,11 @@ import pandas as pd
 from intersection_cosim.errors import InputError
 from intersection_cosim.report.run_figures import trajectory_figure, velocity_figure
 from intersection_cosim.report.solver_figures import compute_time_histogram
+from intersection_cosim.report.stress_figures import stress_report
 from intersection_cosim.report.sweep_figures import kappa_heatmap, kappa_lines, kappa_tradeoff, metric_label
-from intersection_cosim.results.layout import (COMPARISON_FILE, PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE, TABLE_FILE,
-                                               VEHICLES_FILE, run_folder, trajectories_file)
+from intersection_cosim.results.layout import (COMPARISON_FILE, PAIRS_FILE, RUN_MARKER, SPEC_FILE, STEPS_FILE,
+                                               STRESS_SPEC_FILE, TABLE_FILE, VEHICLES_FILE, run_folder,
+                                               trajectories_file)
 from intersection_cosim.results.sweep_folder import load_spec, sweep_table
 
 REPORT_FILE = "report.md"
@@ -45,6 +47,8 @@ MAX_TABLE_ROWS = 500
 def write_report(folder: str | Path) -> Path:
     """Write the report of a run or a sweep folder; return the path of ``report.md``."""
     folder = Path(folder)
+    if (folder / STRESS_SPEC_FILE).is_file():
+        return stress_report(folder, FIGURES_DIR, REPORT_FILE)
     if (folder / SPEC_FILE).is_file():
         return sweep_report(folder)
     if (folder / RUN_MARKER).is_file():

@@ -93,3 +93,8 @@ def run_folder(sweep_dir: str | Path, run_id: str) -> Path:
 def failure_file(sweep_dir: str | Path, run_id: str) -> Path:
     """The failure record of run ``run_id`` of the sweep in ``sweep_dir``."""
     return Path(sweep_dir) / FAILED_DIR / f"{run_id}.json"
+
+# --- a stress folder (experiments/stress/spec.py describes it) -----------------------------------
+STRESS_SPEC_FILE = "stress.json"
+STRESS_TABLE_FILE = "stress.csv"
+STRESS_SUMMARY_FILE = "summary.json"

@@ -32,6 +32,7 @@ from intersection_cosim.scenario.model import (
     VehicleSpec,
     VehicleType,
 )
+from intersection_cosim.scenario.stress_settings import stress_settings
 from intersection_cosim.scenario.network import net_of, network_settings, route_file_ids
 from intersection_cosim.scenario.sumocfg import check_window
 from intersection_cosim.scenario.values import choice, number, unknown_keys
@@ -39,7 +40,7 @@ from intersection_cosim.scenario.vtypes import referenced, route_file_vtypes, vt
 from intersection_cosim.settings import from_table
 from intersection_cosim.v2x.settings import AttackSettings, V2XSettings
 
-TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "vehicle", "flow", "v2x")
+TOP_LEVEL = ("scenario", "controller", "model", "network", "human", "vtype", "vehicle", "flow", "v2x", "stress")
 CONTROLLER_TABLES = ("game", "solver", "policy", "safety", "signals")  # [controller.<name>] sub-tables
 VEHICLE_KEYS = ("id", "position", "approach", "lane", "distance", "movement", "exit_lane", "speed",
                 "kappa", "depart", "desired_speed", "driver", "vtype")
@@ -226,6 +227,7 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path
     v2x = _v2x(src, data.get("v2x"), vehicles, flows, network)
     if network.routes is not None and not scen.keep_all_demand:
         check_window(src, network.routes, scen.begin, scen.duration)
+    stress_settings(src, data.get("stress"))  # read only by ``stress``; checked here so a typo is an error
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
                     controller_tables=tables, vehicles=tuple(vehicles), flows=tuple(flows), network=network,
                     v2x=v2x, human=human, vtypes=vtypes)
