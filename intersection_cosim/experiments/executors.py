@@ -36,7 +36,7 @@ import threading
 import time
 import tomllib
 import traceback
-from concurrent.futures import Executor, ThreadPoolExecutor
+from concurrent.futures import Executor, ThreadPoolExecutor, as_completed
 from pathlib import Path
 from typing import Iterator
 
@@ -117,6 +117,20 @@ def write_failure(job: Job, error: str, detail: str = "") -> None:
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{threading.get_ident()}")
     tmp.write_text(json.dumps(record, indent=2))
     os.replace(tmp, path)
+
+
+def finished_results(futures: dict):
+    """Yield ``(job, result)`` for each of ``futures`` (future -> Job, from ``executor.submit(
+    execute_job, job)``) as it finishes; a task the executor lost (e.g. a Dask worker died) is a
+    failed result, its failure record written like a run's."""
+    for fut in as_completed(futures):
+        job = futures[fut]
+        try:
+            result = fut.result()
+        except Exception as exc:  # noqa: BLE001 - the executor lost the task
+            result = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+            write_failure(job, result["error"])
+        yield job, result
 
 
 def _error_line(exc: BaseException) -> str:

@@ -28,7 +28,6 @@ import shutil
 import sys
 import time
 import tomllib
-from concurrent.futures import as_completed
 from pathlib import Path
 
 import pandas as pd
@@ -36,8 +35,8 @@ import pandas as pd
 from intersection_cosim.control import registry
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.axes import parse_axes
-from intersection_cosim.experiments.executors import (OVERRIDE_TABLES, Job, execute_job, open_executor, stop_children,
-                                                      write_failure)
+from intersection_cosim.experiments.executors import (OVERRIDE_TABLES, Job, execute_job, finished_results, open_executor,
+                                                      stop_children)
 from intersection_cosim.results.layout import FAILED_DIR, RUNS_DIR, SPEC_FILE, TABLE_FILE, failure_file, run_folder
 from intersection_cosim.results.sweep_folder import DECIMALS, SweepSpec, load_spec, safe_name, sweep_table
 from intersection_cosim.experiments.stress.toml_text import dumps
@@ -339,13 +338,7 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, workers: int | None = None, d
             futures = {}
             try:
                 futures = {executor.submit(execute_job, job): job for job in todo}
-                for fut in as_completed(futures):
-                    job = futures[fut]
-                    try:
-                        result = fut.result()
-                    except Exception as exc:  # noqa: BLE001 - the executor lost the task (e.g. a Dask worker died)
-                        result = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
-                        write_failure(job, result["error"])
+                for job, result in finished_results(futures):
                     if result["status"] == "failed":
                         failed += 1
                         bar.set_postfix(failed=failed)

@@ -7,10 +7,9 @@ import json
 import os
 import shutil
 import sys
-from concurrent.futures import as_completed
 from pathlib import Path
 
-from intersection_cosim.experiments.executors import Job, execute_job, stop_children, write_failure
+from intersection_cosim.experiments.executors import Job, execute_job, finished_results, stop_children
 from intersection_cosim.experiments.stress.oracles import Verdict, judge
 from intersection_cosim.experiments.stress.toml_text import dumps
 from intersection_cosim.results.layout import FAILED_DIR, RUNS_DIR, failure_file, is_finished_run, run_folder
@@ -82,13 +81,7 @@ def run_batch(executor, jobs: list[Job], folder: Path, settings: StressSettings,
     futures = {}
     try:
         futures = {executor.submit(execute_job, job): job for job in todo}
-        for fut in as_completed(futures):
-            job = futures[fut]
-            try:
-                result = fut.result()
-            except Exception as exc:  # noqa: BLE001 - the executor lost the task (e.g. a Dask worker died)
-                result = {"status": "failed", "error": f"{type(exc).__name__}: {exc}"}
-                write_failure(job, result["error"])
+        for job, result in finished_results(futures):
             if result["status"] == "ok":
                 verdict(folder, job.run_id, settings)
             else:
