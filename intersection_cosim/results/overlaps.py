@@ -1,7 +1,7 @@
 """Our own collision check: which vehicle bodies overlap, independent of SUMO's collision output.
 
-Bodies and their overlap test are models/bodies.py's. Pairs whose bounding circles do not meet
-are dropped first (sorted by x, so the check stays near linear in the number of vehicles).
+Bodies, their overlap test and the pre-selection of pairs whose bounding circles meet (sorted by
+x, so the check stays near linear in the number of vehicles) are models/bodies.py's.
 """
 
 from __future__ import annotations
@@ -11,24 +11,7 @@ from typing import Mapping
 
 import numpy as np
 
-from intersection_cosim.models.bodies import bodies_overlap, body_corners
-
-
-def _near_pairs(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(i, j), i < j: the pairs whose circles (centre ``cx``, ``cy``, ``radius`` [m]) meet."""
-    n = len(cx)
-    if n < 2:
-        return np.zeros(0, np.intp), np.zeros(0, np.intp)
-    order = np.argsort(cx, kind="stable")
-    xs, reach = cx[order], 2.0 * float(radius.max())
-    hi = np.searchsorted(xs, xs + reach, side="right")  # the first sorted index beyond reach of each
-    count = hi - np.arange(n) - 1
-    first = np.repeat(np.arange(n), count)
-    second = first + 1 + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))
-    a, b = order[first], order[second]
-    close = np.hypot(cx[a] - cx[b], cy[a] - cy[b]) <= radius[a] + radius[b]
-    a, b = a[close], b[close]
-    return np.minimum(a, b), np.maximum(a, b)
+from intersection_cosim.models.bodies import bodies_overlap, body_corners, near_pairs
 
 
 def overlapping_pairs(x: np.ndarray, y: np.ndarray, heading: np.ndarray, length: np.ndarray,
@@ -41,7 +24,7 @@ def overlapping_pairs(x: np.ndarray, y: np.ndarray, heading: np.ndarray, length:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     corners, d, nrm = body_corners(x, y, heading, length, width)
     centre = corners.mean(axis=1)
-    i, j = _near_pairs(centre[:, 0], centre[:, 1], 0.5 * np.hypot(length, width))
+    i, j = near_pairs(centre[:, 0], centre[:, 1], 0.5 * np.hypot(length, width))
     keep = bodies_overlap((corners[i], d[i], nrm[i]), (corners[j], d[j], nrm[j]))
     order = np.lexsort((j[keep], i[keep]))
     return i[keep][order], j[keep][order]

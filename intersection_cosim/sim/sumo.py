@@ -123,7 +123,7 @@ class SumoSimulation:
         exits = {path.lanes[-1] for path in self.paths.values()}
         self._hold = LaneChangeHold({lane: self.api.lane.getLength(lane) for lane in exits},
                                     frozenset(lane for lane in self._watched if lane.startswith(":")),
-                                    self.lane_change_mode)
+                                    self.lane_change_mode, self.step_length)
 
     def _lane_scales(self) -> dict[str, float]:
         """Per path lane whose SUMO length differs from its shape's length (by ``LENGTH_TOL`` [m]
