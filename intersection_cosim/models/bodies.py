@@ -9,6 +9,7 @@ edge normals separates them (the separating axis theorem). Both our collision ch
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
 def body_corners(x: np.ndarray, y: np.ndarray, heading: np.ndarray, length: np.ndarray,
@@ -65,28 +66,53 @@ def beside_occupied(x: np.ndarray, y: np.ndarray, heading: np.ndarray, length: n
     it is taken if it overlaps the body of any other vehicle, lengthened forward by the distance
     that one drives in ``dt``. A lane change moves a body sideways within one step, so this says
     whether it would land on or in front of another body (``x``, ``y`` front bumper [m],
-    ``heading`` [rad], ``length``, ``width`` [m], ``speed`` [m/s], one entry per vehicle).
+    ``heading`` [rad], ``length``, ``width`` [m], ``speed`` [m/s], one entry per vehicle). It runs
+    every SUMO step, so it is compiled: bounding circles first, the separating axes only for the
+    pairs whose circles meet.
     """
-    x, y, heading = (np.asarray(v, float) for v in (x, y, heading))
-    length, width = np.asarray(length, float), np.asarray(width, float)
-    who, shift = np.asarray(who, np.intp), np.asarray(shift, float)
-    n, m = len(x), len(who)
-    if m == 0 or n < 2:
-        return np.zeros(m, dtype=bool)
+    heading = np.asarray(heading, float)
     sweep = np.maximum(np.asarray(speed, float), 0.0) * dt  # [m] driven in dt
-    cos, sin = np.cos(heading), np.sin(heading)
-    fx = np.concatenate([x + sweep * cos, x[who] + (sweep[who] + margin) * cos[who] - shift * sin[who]])
-    fy = np.concatenate([y + sweep * sin, y[who] + (sweep[who] + margin) * sin[who] + shift * cos[who]])
-    ln = np.concatenate([length + sweep, length[who] + sweep[who] + 2.0 * margin])
-    wd = np.concatenate([width, width[who]])
-    hd = np.concatenate([heading, heading[who]])
-    corners, d, nrm = body_corners(fx, fy, hd, ln, wd)
-    centre = corners.mean(axis=1)
-    i, j = near_pairs(centre[:, 0], centre[:, 1], 0.5 * np.hypot(ln, wd))
-    cross = (i < n) & (j >= n)  # a vehicle's body (i) against a place beside (j); i < j always
-    i, j = i[cross], j[cross]
-    i, j = i[i != who[j - n]], j[i != who[j - n]]  # not against its own body
-    hit = bodies_overlap((corners[i], d[i], nrm[i]), (corners[j], d[j], nrm[j]))
-    taken = np.zeros(m, dtype=bool)
-    taken[j[hit] - n] = True
+    return _beside_occupied(np.asarray(x, float), np.asarray(y, float), np.cos(heading), np.sin(heading),
+                            np.asarray(length, float), np.asarray(width, float), sweep,
+                            np.asarray(who, np.int64), np.asarray(shift, float), float(margin))
+
+
+@njit(cache=True)
+def _boxes_overlap(ax, ay, ac, as_, al, aw, bx, by, bc, bs, bl, bw):  # pragma: no cover - compiled
+    """Whether two rectangles overlap (touching counts): centres (ax, ay), (bx, by) [m], headings
+    by cosine and sine, half lengths ``al``, ``bl`` and half widths ``aw``, ``bw`` [m]."""
+    dx, dy = bx - ax, by - ay
+    for ux, uy in ((ac, as_), (-as_, ac), (bc, bs), (-bs, bc)):
+        ra = al * abs(ac * ux + as_ * uy) + aw * abs(-as_ * ux + ac * uy)
+        rb = bl * abs(bc * ux + bs * uy) + bw * abs(-bs * ux + bc * uy)
+        if abs(dx * ux + dy * uy) > ra + rb:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _beside_occupied(x, y, cos, sin, length, width, sweep, who, shift, margin):  # pragma: no cover - compiled
+    n, m = x.size, who.size
+    taken = np.zeros(m, np.bool_)
+    # every body's centre, half length and bounding radius, lengthened forward by its sweep
+    hl = 0.5 * (length + sweep)
+    cx = x + sweep * cos - hl * cos
+    cy = y + sweep * sin - hl * sin
+    radius = np.sqrt(hl * hl + 0.25 * width * width)
+    for k in range(m):
+        i = who[k]
+        pl = hl[i] + margin  # [m] the place's half length: the body's, swept, plus margin at both ends
+        px = cx[i] - shift[k] * sin[i]
+        py = cy[i] + shift[k] * cos[i]
+        pr = np.sqrt(pl * pl + 0.25 * width[i] * width[i])
+        for j in range(n):
+            if j == i:
+                continue
+            dx, dy = cx[j] - px, cy[j] - py
+            if dx * dx + dy * dy > (pr + radius[j]) ** 2:
+                continue
+            if _boxes_overlap(px, py, cos[i], sin[i], pl, 0.5 * width[i],
+                              cx[j], cy[j], cos[j], sin[j], hl[j], 0.5 * width[j]):
+                taken[k] = True
+                break
     return taken
