@@ -62,6 +62,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from sumolib import geomhelper
 
+from intersection_cosim.network.conflict_cache import disk_cached, inputs_digest
 from intersection_cosim.network.conflict_zones import ZONE_MERGE, coarse_zone, conflict_zone, point_zone, swept_area
 from intersection_cosim.network.movements import Movements
 from intersection_cosim.network.paths import MovementPath, load_paths
@@ -359,8 +360,9 @@ def movement_conflicts(movements: Movements, vehicle_width: float = 1.8) -> dict
     """:func:`conflict_points` of the movements' paths with SUMO's foes guarded, cached per
     (``movements.key``, width [m])."""
     width = float(vehicle_width)
-    return _cached(("points", movements.key, width),
-                   lambda: conflict_points(dict(movements.paths), width, movements.foes))
+    digest = inputs_digest("points", movements.paths, movements.foes, (width,))
+    return _cached(("points", movements.key, width), lambda: disk_cached(
+        digest, lambda: conflict_points(dict(movements.paths), width, movements.foes)))
 
 
 def movement_conflict_table(movements: Movements, vehicle_width: float = 1.8,
@@ -372,5 +374,14 @@ def movement_conflict_table(movements: Movements, vehicle_width: float = 1.8,
     width, length = float(vehicle_width), float(vehicle_length)
     touch = width if touch_width is None else float(touch_width)
     return _cached(("table", movements.key, width, length) + ((touch,) if touch != width else ()),
-                   lambda: ConflictTable.build(dict(movements.paths), movement_conflicts(movements, touch),
-                                               length, width))
+                   lambda: _shared_paths(disk_cached(
+                       inputs_digest("table", movements.paths, movements.foes, (width, length, touch)),
+                       lambda: _shared_paths(ConflictTable.build(dict(movements.paths), movement_conflicts(
+                           movements, touch), length, width), None)), movements))
+
+
+def _shared_paths(table: ConflictTable, movements: Movements | None) -> ConflictTable:
+    """``table`` with its paths the movements' own objects (None: without, as it is stored on disk:
+    the paths are its inputs, kept by the movements)."""
+    object.__setattr__(table, "paths", None if movements is None else dict(movements.paths))  # frozen
+    return table
