@@ -49,7 +49,10 @@ class StressSettings:
     time_gap_floor: float = 1.0  # [m/s] a follower slower than this gives no time gap to its leader
     stuck_time: float = 30.0  # [s] a vehicle not arrived that stood still this long before the run ended
     #                           never arrives (one still driving only ran out of drain time)
-    hard_braking_tolerance: float = 0.5  # [m/s^2] braking harder than decel by more than this is a failure
+    hard_braking_tolerance: float = 0.5  # [m/s^2] braking harder than emergencyDecel by more than this is a
+    #   hard_braking failure; harder than decel by more than this, an emergency_braking near miss
+    emergency_braking_fails: bool = False  # [-] true: an emergency_braking near miss (braking between decel
+    #   and emergencyDecel, which the safety rules command by design) also counts as a failure
     cem_generations: int = 4  # [-] generations of --search cem (the runs split evenly among them)
     cem_elite: float = 0.25  # [-] share of a generation that the next one is fitted to
     cem_min_std: float = 0.05  # [-] least std of a parameter, as a share of its range
@@ -80,8 +83,12 @@ def _range(src: str, name: str, value: Any) -> tuple[float, float] | None:
     return low, high
 
 
-def _scalar(src: str, name: str, value: Any) -> float | int:
+def _scalar(src: str, name: str, value: Any) -> float | int | bool:
     field = f"stress.{name}"
+    if SCALARS[name].type in ("bool", bool):
+        if not isinstance(value, bool):
+            raise InputError(src, field, value, "must be true or false")
+        return value
     want_int = SCALARS[name].type in ("int", int)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or (want_int and not isinstance(value, int)):
         raise InputError(src, field, value, "must be an integer" if want_int else "must be a number")
