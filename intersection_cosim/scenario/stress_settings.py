@@ -31,9 +31,14 @@ AXIS_DEFAULTS: dict[str, tuple[tuple[float, float] | None, str, str]] = {
     "position_noise": ((0.0, 1.0), "m", "v2x.position_noise"),
     "speed_noise": ((0.0, 0.5), "m/s", "v2x.speed_noise"),
     "vtype": ((0.0, 1.0), "-", "which [[vtype]] each flow drives (a share of the list; only with vtypes)"),
+    "uturn_share": ((0.0, 0.3), "-", "share of each flow's vehicles that turn back at the first managed junction "
+                    "of its route with a U-turn connection (only on nets that have one there)"),
+    "pedestrian_rate": ((0.0, 400.0), "persons/h", "people walking over each crossing of the managed junctions, "
+                        "half each way (only where they have crossings and the controller yields to them)"),
 }
 AXIS_BOUNDS = {"av_share": (0.0, 1.0), "kappa_center": (0.0, 1.0), "kappa_spread": (0.0, 1.0),
-               "loss": (0.0, 1.0), "burst_start": (0.0, 1.0), "vtype": (0.0, 1.0)}  # hard limits of a range
+               "loss": (0.0, 1.0), "burst_start": (0.0, 1.0), "vtype": (0.0, 1.0),
+               "uturn_share": (0.0, 1.0)}  # hard limits of a range
 
 
 @dataclasses.dataclass(frozen=True)
