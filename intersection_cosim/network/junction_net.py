@@ -311,3 +311,16 @@ def junction_table(net_file: str | FsPath, all_junctions: bool = False, vclass: 
     net, _ = _read(str(net_file))
     rows = [_node_row(n, vclass, all_junctions) for n in net.getNodes() if n.getType() != "internal"]
     return pd.DataFrame([r for r in rows if r is not None], columns=list(TABLE_COLUMNS))
+
+
+def uturn_exits(net_file: str | FsPath, junctions: tuple[str, ...], vclass: str = "passenger") -> dict[str, str]:
+    """Each edge into one of ``junctions`` that has a U-turn connection (SUMO's direction ``t``)
+    open to ``vclass`` -> the edge it turns back onto; empty for a net built without turnarounds
+    (the generated paper net). What the stress search's U-turn axis may draw."""
+    net, _graph = _read(str(net_file))
+    out: dict[str, str] = {}
+    for jid in junctions:
+        for conn in drivable_connections(_node(net, str(net_file), jid, vclass), vclass):
+            if conn.getDirection() == "t":
+                out.setdefault(conn.getFrom().getID(), conn.getTo().getID())
+    return out

@@ -98,12 +98,13 @@ def stress_report(folder: Path, figures_dir: str = "figures", report_file: str =
     figs = [margin_figure(ok, params, folder / figures_dir / MARGIN_PNG),
             failures_figure(ok, params, folder / figures_dir / FAILURES_PNG)]
     counts = ", ".join(f"{k} {n}" for k, n in summary["runs_with_failure"].items())
+    near = ", ".join(f"{k} {n}" for k, n in summary.get("runs_with_near_miss", {}).items()) or "none recorded"
     lines = [f"# Stress search of {spec['scenario_name']}", "",
              f"Search {spec['search']}, seed {spec['seed']}, {summary['runs_finished']}/{spec['runs']} runs finished "
              f"({summary['runs_crashed']} crashed), demand window {spec['duration']:g} s"
              + (f", settings {' '.join(spec['sets'])}" if spec["sets"] else "") + ".", "",
              f"Smallest margin {summary['min_margin']:.3f} s, median {summary['median_margin']:.3f} s. "
-             f"Runs with a failure, by kind: {counts}.", "", "## Failures (de-duplicated by kind and place)", "",
+             f"Runs with a failure, by kind: {counts}. Runs with a near miss (no failure), by kind: {near}.", "", "## Failures (de-duplicated by kind and place)", "",
              *_failures_md(summary), "", "## Figures", ""]
     lines += [f"![{p.stem}]({figures_dir}/{p.name})" for p in figs]
     out = folder / report_file

@@ -31,9 +31,14 @@ AXIS_DEFAULTS: dict[str, tuple[tuple[float, float] | None, str, str]] = {
     "position_noise": ((0.0, 1.0), "m", "v2x.position_noise"),
     "speed_noise": ((0.0, 0.5), "m/s", "v2x.speed_noise"),
     "vtype": ((0.0, 1.0), "-", "which [[vtype]] each flow drives (a share of the list; only with vtypes)"),
+    "uturn_share": ((0.0, 0.3), "-", "share of each flow's vehicles that turn back at the first managed junction "
+                    "of its route with a U-turn connection (only on nets that have one there)"),
+    "pedestrian_rate": ((0.0, 400.0), "persons/h", "people walking over each crossing of the managed junctions, "
+                        "half each way (only where they have crossings and the controller yields to them)"),
 }
 AXIS_BOUNDS = {"av_share": (0.0, 1.0), "kappa_center": (0.0, 1.0), "kappa_spread": (0.0, 1.0),
-               "loss": (0.0, 1.0), "burst_start": (0.0, 1.0), "vtype": (0.0, 1.0)}  # hard limits of a range
+               "loss": (0.0, 1.0), "burst_start": (0.0, 1.0), "vtype": (0.0, 1.0),
+               "uturn_share": (0.0, 1.0)}  # hard limits of a range
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,7 +54,10 @@ class StressSettings:
     time_gap_floor: float = 1.0  # [m/s] a follower slower than this gives no time gap to its leader
     stuck_time: float = 30.0  # [s] a vehicle not arrived that stood still this long before the run ended
     #                           never arrives (one still driving only ran out of drain time)
-    hard_braking_tolerance: float = 0.5  # [m/s^2] braking harder than decel by more than this is a failure
+    hard_braking_tolerance: float = 0.5  # [m/s^2] braking harder than emergencyDecel by more than this is a
+    #   hard_braking failure; harder than decel by more than this, an emergency_braking near miss
+    emergency_braking_fails: bool = False  # [-] true: an emergency_braking near miss (braking between decel
+    #   and emergencyDecel, which the safety rules command by design) also counts as a failure
     cem_generations: int = 4  # [-] generations of --search cem (the runs split evenly among them)
     cem_elite: float = 0.25  # [-] share of a generation that the next one is fitted to
     cem_min_std: float = 0.05  # [-] least std of a parameter, as a share of its range
@@ -80,8 +88,12 @@ def _range(src: str, name: str, value: Any) -> tuple[float, float] | None:
     return low, high
 
 
-def _scalar(src: str, name: str, value: Any) -> float | int:
+def _scalar(src: str, name: str, value: Any) -> float | int | bool:
     field = f"stress.{name}"
+    if SCALARS[name].type in ("bool", bool):
+        if not isinstance(value, bool):
+            raise InputError(src, field, value, "must be true or false")
+        return value
     want_int = SCALARS[name].type in ("int", int)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or (want_int and not isinstance(value, int)):
         raise InputError(src, field, value, "must be an integer" if want_int else "must be a number")

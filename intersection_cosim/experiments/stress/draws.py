@@ -1,8 +1,11 @@
 """The parameters of a stress run and the scenario variant they make.
 
 A :class:`Space` is the list of parameters drawn for a scenario: one per axis of the ``[stress]``
-table that is on (scenario/stress_settings.py), and per flow for the per-flow axes
-(``flow_scale.<flow id>``, ``vtype.<flow id>``). A draw is a dict parameter name -> value inside
+table that is on and applies to it (scenario/stress_settings.py), and per flow for the per-flow
+axes (``flow_scale.<flow id>``, ``vtype.<flow id>``). ``uturn_share`` moves that share of each
+flow whose route enters a managed junction with a U-turn connection to a copy ``<flow id>_uturn``
+routed back over it (network/junction_net.py's ``uturn_exits``); ``pedestrian_rate`` is written
+by experiments/stress/people.py (a routes file, not a table). A draw is a dict parameter name -> value inside
 its range. :func:`variant` writes a draw into a copy of the scenario's parsed TOML (the base,
 prepared once by :func:`base_data`), so the variant is a plain scenario file with every drawn value
 written out: the run's seed, rates, bursts, kappa, av_share, insertion speeds and V2X settings.
@@ -16,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from intersection_cosim.experiments.stress import people
+from intersection_cosim.network.junction_net import uturn_exits
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.scenario.network import read_net
 from intersection_cosim.scenario.stress_settings import StressSettings
@@ -49,9 +54,31 @@ def space(scn: Scenario, settings: StressSettings) -> tuple[Param, ...]:
             if name == "vtype" and not [vt for vt in scn.vtypes if not vt.from_routes]:
                 continue
             params += [Param(f"{name}.{f.id}", low, high) for f in scn.flows]
+        elif name == "uturn_share":
+            if uturn_routes(scn):
+                params.append(Param(name, low, high))
+        elif name == people.AXIS:
+            if people.walks(scn):
+                params.append(Param(name, low, high))
         elif name in V2X_AXES or scn.flows:
             params.append(Param(name, low, high))
     return tuple(params)
+
+
+def uturn_routes(scn: Scenario) -> dict[str, tuple[str, ...]]:
+    """Flow id -> the route of its U-turn: its route up to the first edge into a managed junction
+    that has a U-turn connection (and that the flow drives through), then the edge it turns back
+    onto. Only flows on a net file that reach such a junction; none on the generated net."""
+    if scn.network.file is None:
+        return {}
+    back = uturn_exits(str(scn.network.file), tuple(scn.network.junctions))
+    out = {}
+    for f in scn.flows:
+        route = tuple(f.route or ())
+        k = next((k for k, edge in enumerate(route[:-1]) if edge in back), None)
+        if k is not None:
+            out[f.id] = route[:k + 1] + (back[route[k]],)
+    return out
 
 
 def uniform_draw(params: tuple[Param, ...], rng: np.random.Generator) -> dict[str, float]:
@@ -99,10 +126,15 @@ def _flows(data: dict, scn: Scenario, draw: dict[str, float], duration: float) -
     """The variant's [[flow]] tables: rates scaled, bursts added, kappa, av_share, speed, vtype."""
     vtypes = [vt.id for vt in scn.vtypes if not vt.from_routes]
     limits = _speed_limits(scn)
-    flows, bursts = [], []
+    uturns = uturn_routes(scn) if "uturn_share" in draw else {}
+    flows, bursts, turned = [], [], []
     for table, spec in zip(data.get("flow", []), scn.flows, strict=True):
         t = dict(table)
         rate = float(t["rate"]) * draw.get("demand_scale", 1.0) * draw.get(f"flow_scale.{spec.id}", 1.0)
+        if spec.id in uturns:
+            share = draw["uturn_share"]
+            turned.append((spec.id, round(rate * share, 3)))
+            rate *= 1.0 - share
         t["rate"] = round(rate, 3)
         if "kappa_center" in draw or "kappa_spread" in draw:
             c, s = draw.get("kappa_center", 0.5), draw.get("kappa_spread", 0.0)
@@ -117,7 +149,10 @@ def _flows(data: dict, scn: Scenario, draw: dict[str, float], duration: float) -
         flows.append(t)
         if (burst := _burst(t, spec, draw, duration)) is not None:
             bursts.append(burst)
-    return flows + bursts
+    by_id = {t["id"]: t for t in flows}
+    back = [{**{k: v for k, v in by_id[fid].items() if k not in ("from", "to")}, "id": f"{fid}_uturn",
+             "route": list(uturns[fid]), "rate": rate} for fid, rate in turned if rate > 0]
+    return flows + bursts + back
 
 
 def _burst(table: dict, spec, draw: dict[str, float], duration: float) -> dict | None:

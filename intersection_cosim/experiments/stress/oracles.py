@@ -12,7 +12,19 @@ Failure kinds (the first event of each kind in a run):
 - ``never_arrived``: a vehicle that departed, had not arrived when the run ended and stood still
   for at least ``stuck_time`` before its end (one still driving only ran out of drain time);
 - ``hard_braking``: a vehicle whose acceleration SUMO realised (trajectories.csv) was below minus
-  its vType's ``decel`` (scenario.rou.xml) by more than the tolerance: an emergency braking.
+  its vType's ``emergencyDecel`` (scenario.rou.xml) by more than the tolerance: harder than the
+  vehicle can brake at all. SUMO caps its own drivers at emergencyDecel and realises a controlled
+  vehicle's command as given (speed mode 0), so this is a command no vehicle could follow, or SUMO
+  forcing a stop.
+
+Near misses (recorded, but no failure unless ``emergency_braking_fails`` is set):
+
+- ``emergency_braking``: a vehicle braked harder than its vType's ``decel`` by more than the
+  tolerance, but not harder than its ``emergencyDecel`` (SUMO's "performs emergency braking"
+  events). The safety rules command this on purpose when a vehicle must stop short (a pedestrian
+  stepping out, a leader braking), and SUMO's human drivers do it when a controlled vehicle takes
+  their right of way; counted as a failure it fired in most runs and drowned the real failures.
+  Its ``why`` says whether the controller commanded it or SUMO's driver model braked.
 
 The margin [s] is the least of the PET of every crossing and merging pair (pairs.csv) and the time
 gap of every follower to the vehicle ahead of it on its lane (trajectories.csv); a collision,
@@ -38,8 +50,10 @@ from intersection_cosim.results.sumo_outputs import PEDESTRIAN_COLLISIONS
 FAILED_MARGIN = -1.0  # [s] the margin of a run with a collision, overlap or lock
 NO_MARGIN = 99.0  # [s] the margin of a run without any pair or follower (nothing came close)
 SEVERE = ("collision", "person_hit", "overlap", "lock")  # kinds that put the margin below every other
-KINDS = ("collision", "person_hit", "overlap", "lock", "never_arrived", "hard_braking")
+KINDS = ("collision", "person_hit", "overlap", "lock", "never_arrived", "hard_braking", "emergency_braking")
+NEAR_MISS_KINDS = ("emergency_braking",)  # kinds that are no failure unless emergency_braking_fails
 DEFAULT_DECEL = 4.5  # [m/s^2] SUMO's default decel, for a vType the route file does not define
+DEFAULT_EMERGENCY_DECEL = 9.0  # [m/s^2] SUMO's default emergencyDecel of a passenger car (at least decel)
 ROUTES_FILE = "scenario.rou.xml"  # the run's SUMO routes (experiments/run_inputs.py)
 
 
@@ -73,14 +87,16 @@ class Verdict:
     vehicles: int
     arrived: int
     compute_ms_median: float  # [ms] per control step
+    near_misses: tuple[Failure, ...] = ()  # NEAR_MISS_KINDS events that do not count as failures
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
 
     @classmethod
     def from_dict(cls, d: dict) -> "Verdict":
-        fails = tuple(Failure(**{**f, "vehicles": tuple(f["vehicles"])}) for f in d["failures"])
-        return cls(**{**d, "failures": fails})
+        def events(rows: list[dict]) -> tuple[Failure, ...]:
+            return tuple(Failure(**{**f, "vehicles": tuple(f["vehicles"])}) for f in rows)
+        return cls(**{**d, "failures": events(d["failures"]), "near_misses": events(d.get("near_misses", []))})
 
 
 def _first_collision(folder: Path) -> list[Failure]:
@@ -134,30 +150,41 @@ def _lock_and_stuck(folder: Path, summary: dict, traj: pd.DataFrame, stuck_time:
     return out
 
 
-def _decels(folder: Path) -> tuple[dict[str, float], dict[str, str]]:
-    """[m/s^2] each vType's decel, and each vehicle's vType, from the run's routes file."""
+def _decels(folder: Path) -> tuple[dict[str, tuple[float, float]], dict[str, str]]:
+    """[m/s^2] each vType's (decel, emergencyDecel), and each vehicle's vType, from the run's routes file."""
     decel, vtype = {}, {}
     path = folder / ROUTES_FILE
     if path.is_file():
         for _, el in ET.iterparse(path):
             if el.tag == "vType":
-                decel[el.get("id")] = float(el.get("decel", DEFAULT_DECEL))
+                d = float(el.get("decel", DEFAULT_DECEL))
+                decel[el.get("id")] = (d, float(el.get("emergencyDecel", max(d, DEFAULT_EMERGENCY_DECEL))))
             elif el.tag == "vehicle":
                 vtype[el.get("id")] = el.get("type", "DEFAULT_VEHTYPE")
     return decel, vtype
 
 
-def _hard_braking(folder: Path, traj: pd.DataFrame, tolerance: float) -> list[Failure]:
+def _braking(folder: Path, traj: pd.DataFrame, tolerance: float) -> list[Failure]:
+    """The first ``hard_braking`` (beyond emergencyDecel + ``tolerance`` [m/s^2]) and the first
+    ``emergency_braking`` (beyond decel + ``tolerance``, within emergencyDecel + ``tolerance``)."""
     decel, vtype = _decels(folder)
-    limit = traj["vehicle"].map(lambda v: decel.get(vtype.get(v, ""), DEFAULT_DECEL))
-    hard = traj[traj["accel"] < -(limit + tolerance)]
-    if not len(hard):
-        return []
-    r = hard.sort_values("time", kind="stable").iloc[0]
-    d = decel.get(vtype.get(r["vehicle"], ""), DEFAULT_DECEL)
-    return [Failure("hard_braking", float(r["time"]), str(r["lane"]), (str(r["vehicle"]),),
-                    f"{r['vehicle']} braked at {-r['accel']:.2f} m/s^2, harder than its decel {d:g} m/s^2 "
-                    f"(an emergency braking) on {r['lane']}")]
+    limits = traj["vehicle"].map(lambda v: decel.get(vtype.get(v, ""), (DEFAULT_DECEL, DEFAULT_EMERGENCY_DECEL)))
+    normal = limits.map(lambda lim: lim[0]).astype(float)
+    emergency = limits.map(lambda lim: lim[1]).astype(float)
+    beyond = traj["accel"] < -(emergency + tolerance)
+    out = []
+    for kind, rows, limit, what in (
+            ("hard_braking", traj[beyond], emergency, "emergencyDecel"),
+            ("emergency_braking", traj[~beyond & (traj["accel"] < -(normal + tolerance))], normal, "decel")):
+        if not len(rows):
+            continue
+        r = rows.sort_values("time", kind="stable").iloc[0]
+        by = ("the controller commanded it" if not pd.isna(r["accel_cmd"])
+              else "SUMO's driver model braked")
+        out.append(Failure(kind, float(r["time"]), str(r["lane"]), (str(r["vehicle"]),),
+                           f"{r['vehicle']} braked at {-r['accel']:.2f} m/s^2, harder than its {what} "
+                           f"{limit[r.name]:g} m/s^2 on {r['lane']} ({by})"))
+    return out
 
 
 def min_time_gap(traj: pd.DataFrame, length: float, floor: float) -> float:
@@ -180,14 +207,17 @@ def min_time_gap(traj: pd.DataFrame, length: float, floor: float) -> float:
 
 
 def judge(folder: str | Path, time_gap_floor: float = 1.0, braking_tolerance: float = 0.5,
-          stuck_time: float = 30.0) -> Verdict:
-    """The verdict of the finished run in ``folder`` (module docstring)."""
+          stuck_time: float = 30.0, near_misses_fail: bool = False) -> Verdict:
+    """The verdict of the finished run in ``folder`` (module docstring); ``near_misses_fail``: the
+    near misses count as failures too."""
     folder = Path(folder)
     summary = json.loads((folder / RUN_MARKER).read_text())
     traj = pd.read_csv(trajectories_file(folder), usecols=["time", "vehicle", "x", "y", "speed", "accel",
-                                                            "heading", "lane"])
+                                                            "heading", "lane", "accel_cmd"])
     failures = _first_collision(folder) + _first_overlap(folder) + _lock_and_stuck(folder, summary, traj, stuck_time)
-    failures += _hard_braking(folder, traj, braking_tolerance)
+    events = _braking(folder, traj, braking_tolerance)
+    near = [] if near_misses_fail else [f for f in events if f.kind in NEAR_MISS_KINDS]
+    failures += [f for f in events if f not in near]
     pairs = pd.read_csv(folder / PAIRS_FILE)
     pet = float(pairs["pet"].min()) if len(pairs) and pairs["pet"].notna().any() else math.nan
     length = float(summary["settings"]["model"]["vehicle_length"])
@@ -199,4 +229,5 @@ def judge(folder: str | Path, time_gap_floor: float = 1.0, braking_tolerance: fl
     return Verdict(margin=round(margin, 4), min_pet=pet, min_time_gap=gap,
                    failures=tuple(sorted(failures, key=lambda f: (f.time, KINDS.index(f.kind)))),
                    vehicles=int(counts["vehicles"]), arrived=int(counts["arrived"]),
-                   compute_ms_median=float(metrics["compute_ms_median"] or math.nan))
+                   compute_ms_median=float(metrics["compute_ms_median"] or math.nan),
+                   near_misses=tuple(sorted(near, key=lambda f: (f.time, KINDS.index(f.kind)))))

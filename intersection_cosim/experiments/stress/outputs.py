@@ -14,7 +14,7 @@ import pandas as pd
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.stress.failures import (FAILURES_DIR, Found, dedup, file_name, shrink_candidates,
                                                             size, write_failure)
-from intersection_cosim.experiments.stress.oracles import KINDS
+from intersection_cosim.experiments.stress.oracles import KINDS, NEAR_MISS_KINDS
 from intersection_cosim.experiments.stress.runs import (SCENARIOS_DIR, make_job, run_batch, run_error, verdict,
                                                         write_atomic)
 from intersection_cosim.experiments.stress.spec import STRESS_TABLE_FILE, SUMMARY_FILE, Prepared
@@ -36,7 +36,8 @@ def _row(prep: Prepared, out: Path, index: int) -> tuple[dict, tuple | None]:
         return {**row, "status": "failed" if error else "pending", "error": error}, None
     first = v.failures[0] if v.failures else None
     row.update(status="ok", margin=v.margin, min_pet=v.min_pet, min_time_gap=v.min_time_gap,
-               failures=";".join(f.kind for f in v.failures), first_failure=first.kind if first else "",
+               failures=";".join(f.kind for f in v.failures), near_misses=";".join(f.kind for f in v.near_misses),
+               first_failure=first.kind if first else "",
                first_failure_time=first.time if first else math.nan,
                first_failure_place=first.place if first else "", vehicles=v.vehicles, arrived=v.arrived,
                compute_ms_median=v.compute_ms_median, error="")
@@ -117,6 +118,14 @@ def _failure_files(prep: Prepared, out: Path, finished: list[tuple], executor, s
     return listed
 
 
+def _runs_with(ok: pd.DataFrame, column: str, kinds: tuple[str, ...]) -> dict[str, int]:
+    """How many of the finished runs ``ok`` list each of ``kinds`` in ``column`` (kinds joined by ";")."""
+    if not len(ok):
+        return {k: 0 for k in kinds}
+    listed = ok[column].fillna("").astype(str).str.split(";")
+    return {k: int(listed.apply(lambda fs, k=k: k in fs).sum()) for k in kinds}
+
+
 def write_outputs(prep: Prepared, out: Path, executor, shrink: bool, command: str, progress: bool) -> dict:
     """stress.csv, the failure files and summary.json of the stress folder ``out``; return the summary."""
     table, finished = stress_table(prep, out)
@@ -124,13 +133,13 @@ def write_outputs(prep: Prepared, out: Path, executor, shrink: bool, command: st
     listed = _failure_files(prep, out, finished, executor, shrink, command, progress)
     ok = table[table["status"] == "ok"] if len(table) else table
     margins = ok["margin"] if len(ok) else pd.Series([], dtype=float)
-    kinds = {k: int(ok["failures"].str.split(";").apply(lambda fs, k=k: k in fs).sum()) if len(ok) else 0
-             for k in KINDS}
+    kinds = _runs_with(ok, "failures", KINDS)
     summary = {"scenario": prep.spec.scenario, "search": prep.spec.search, "seed": prep.spec.seed,
                "runs": prep.spec.runs, "runs_finished": int(len(ok)),
                "runs_crashed": int((table["status"] == "failed").sum()) if len(table) else 0,
                "min_margin": float(margins.min()) if len(margins) else math.nan,
                "median_margin": float(margins.median()) if len(margins) else math.nan,
-               "runs_with_failure": kinds, "failures": listed, "command": command}
+               "runs_with_failure": kinds, "runs_with_near_miss": _runs_with(ok, "near_misses", NEAR_MISS_KINDS),
+               "failures": listed, "command": command}
     write_atomic(out / SUMMARY_FILE, json.dumps(summary, indent=2) + "\n")
     return summary

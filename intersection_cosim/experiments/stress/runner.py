@@ -20,6 +20,7 @@ import numpy as np
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.executors import open_executor
 from intersection_cosim.experiments.stress.draws import variant
+from intersection_cosim.experiments.stress.people import PEOPLE_DIR, with_people
 from intersection_cosim.experiments.stress.outputs import write_outputs
 from intersection_cosim.experiments.stress.runs import clean_leftovers, make_job, run_batch, verdict, write_atomic
 from intersection_cosim.experiments.stress.search import cem_fit, generations, propose, to_unit
@@ -78,6 +79,7 @@ def _generation_jobs(prep: Prepared, out: Path, indices: range, generation: int,
         write_atomic(out / DRAWS_DIR / f"{run_id(i)}.json",
                      json.dumps({"seed": seed, "generation": generation, "draw": draw}, indent=1))
         data = variant(prep.base, prep.scn, draw, seed, spec.duration, prep.settings)
+        data = with_people(data, prep.scn, draw, spec.duration, out / PEOPLE_DIR / f"{run_id(i)}.rou.xml")
         header = (f"run {run_id(i)} of a stress search of {spec.scenario_name} ({spec.search}, seed {spec.seed}, "
                   f"generation {generation})")
         jobs.append(make_job(out, run_id(i), data, header))

@@ -57,7 +57,7 @@ def verdict(folder: Path, run_id: str, settings: StressSettings) -> Verdict | No
     if path.is_file():
         return Verdict.from_dict(json.loads(path.read_text()))
     v = judge(run_folder(folder, run_id), settings.time_gap_floor, settings.hard_braking_tolerance,
-              settings.stuck_time)
+              settings.stuck_time, settings.emergency_braking_fails)
     write_atomic(path, json.dumps(v.to_dict(), indent=1))
     return v
 
