@@ -370,18 +370,21 @@ class FcfsController:
         decisions.caps.update(result.guest_caps)
 
     def fallback(self, world: World) -> Decisions:
-        """Comfortable braking for approaching vehicles that can still stop; the rest keep going."""
+        """Comfortable braking for approaching vehicles that can still stop, the committed ones
+        keep going; through the safety filter (rule 6) as every step."""
         decisions = Decisions(fallback=True)
         period = self.ctx.control_period
         observed = world.observed()
+        active, stopping = [], {}
         for k in range(len(world)):
             if world.role[k] == "outside" or (observed is not None and observed[k]):
                 continue
             vid = world.ids[k]
-            if vid in self.committed:
-                a = self.fs.comfort_accel
-            else:
-                a = -self.fs.comfort_accel
+            a = self.fs.comfort_accel if vid in self.committed else -self.fs.comfort_accel
+            if vid not in self.committed:
+                stopping[vid] = a
             decisions.accel[vid] = max(a, -float(world.v[k]) / period)
             self.controlled.add(vid)
+            active.append(k)
+        self._guard(world, self._arrivals(world), active, stopping, decisions)
         return decisions

@@ -25,12 +25,13 @@ from intersection_cosim.control.baselines.reservations import FcfsSettings, Gran
 from intersection_cosim.control.game.relations import step_relations
 from intersection_cosim.control.safety.context import GuardedJunction
 from intersection_cosim.control.safety.filter import SafetyFilter
-from intersection_cosim.control.safety.kinematics import stopping_acceleration
+from intersection_cosim.control.safety.kinematics import occupancy_times, stopping_acceleration
 from intersection_cosim.control.safety.onboard import krauss_safe_speed
 from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.control.safety.step import SafetyResult
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.games.settings import ProblemSettings
+from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_FOLLOWING, ConflictTable, movement_conflict_table
 from intersection_cosim.network.crossings import crossing_zones, movement_crossings
 from intersection_cosim.network.waiting import waiting_watches
@@ -97,7 +98,8 @@ def flown_plan(s0: float, v0: float, a0: float, s_line: float, t_go: float | Non
 
 
 class FcfsGuard:
-    """One junction's :class:`SafetyFilter` for fcfs, with the conflict table and settings it reads."""
+    """One junction's :class:`SafetyFilter` for fcfs, with the conflict table and settings it reads
+    (the default safety settings, its exit_room rule on or off with fcfs's own ``exit_room``)."""
 
     def __init__(self, context: ControlContext, fs: FcfsSettings, settings: SafetySettings | None = None):
         model = context.model
@@ -112,9 +114,19 @@ class FcfsGuard:
                                context.touch_width)
         waits = {pid: (context.paths[pid].s_wait, lanes) for pid, lanes in waiting_watches(context.movements).items()}
         self.filter = SafetyFilter(GuardedJunction(
-            settings or SafetySettings(), self.problem, model, context.movements, self.table.s_stop,
+            settings or SafetySettings(exit_room=fs.exit_room), self.problem, model, context.movements, self.table.s_stop,
             self.table.s_wait, waits, context.control_period,
             gap_slack=3.0 * math.sqrt(2.0) * context.position_noise, crossing_zones=zones))
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        """Call the compiled kernels the rules use once before the first step (numba loads each
+        from its cache at its first call, up to seconds: a first step over its budget would make
+        the run depend on the machine's speed), as the game controller does."""
+        occupancy_times(np.array([[0.0, 1.0]]), np.array([2], np.intp), np.array([0.1]), np.zeros(1, np.intp),
+                        np.array([0.5]))
+        Plan.from_accelerations(0.0, 5.0, np.zeros(self.problem.steps), self.problem.dt)
+        time_to_conflict_point(np.array([1.0]), np.array([1.0]), self.ctx.model.tcp_speed_floor)
 
     @property
     def steps(self) -> int:

@@ -27,7 +27,8 @@ class FcfsSettings:
     exit_room: bool = True  # [-] don't block the box: an uncommitted vehicle whose exit lane lacks
     #                         room is held at its stop line without a reservation (control/safety/exit_room.py)
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
-    standing_speed: float = 1.0  # [m/s] a vehicle inside the junction slower than this claims exit room
+    standing_speed: float = 1.0  # [m/s] a vehicle inside the junction slower than this claims exit room;
+    #                              a human slower than this short of its stop line reserves nothing
     human_slow_accel: float = 0.5  # [m/s^2] a human driver's slowest plausible start: its reservation
     #                                lasts until it could have cleared a point accelerating this gently
     safety_filter: bool = True  # [-] run the game controllers' safety rules (control/safety/, default
