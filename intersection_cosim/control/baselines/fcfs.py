@@ -39,20 +39,27 @@ same approach lane (a *following* pair) share a "stop-line point": from the fron
    ``comfort_accel`` to ``v_max``; a delayed one applies the constant acceleration of its slot
    (or brakes to stop before the line, ``stopping_acceleration``), clipped to
    ``[-max_brake, comfort_accel]``. Every command is capped by Krauss' safe speed
-   (``krauss_safe_speed``, control/safety/) behind the vehicle's leader: the nearest vehicle
-   ahead on a shared stretch (same approach lane, or the same exit lane after a merge point).
+   (:func:`~intersection_cosim.control.baselines.fcfs_guard.leader_caps`) behind the vehicle's
+   leader: the nearest vehicle ahead on a shared stretch (same approach lane, or the same exit
+   lane after a merge point).
 4. Vehicles that have left the conflict zone (role ``outside``) are released to SUMO.
 5. Don't block the box (``exit_room``, as the game controller): an approaching vehicle that is
    not committed and whose exit lane will lack room for it when it reaches its stop line
    (:func:`~intersection_cosim.control.exit_room.exit_room_caps`) gets no reservation this period
    and brakes to stop ``follow_gap`` before its line; the points it would have reserved stay free
    for the others.
+6. Safety filter (``safety_filter``): the game controllers' named safety rules (control/safety/,
+   through :mod:`~intersection_cosim.control.baselines.fcfs_guard`) check every command against
+   the humans, the guests, vehicles standing in the box and each AV's grant flown; they only
+   lower accelerations (or let a vehicle standing in a crossing drive out of it).
 
 **Mixed traffic.** A human driver (and a guest another junction commands) is never commanded: its
 points are reserved first, every period, from its current state: from its earliest entry
 (accelerating at ``comfort_accel``) until it could have left accelerating only at
 ``human_slow_accel``, so the AVs are granted slots around the humans' predicted occupancy and
-yield to them; the leader caps count humans as leaders too.
+yield to them; the leader caps count humans as leaders too. A human standing short of its stop
+line (below ``standing_speed``) reserves nothing: SUMO holds it for a foe, maybe an AV waiting
+for that reservation (a cycle); once it moves it reserves again, and rule 6 guards the AVs.
 
 The controller also fixes each vehicle's exit lane to its path's (``Decisions.exit_lane``) so that
 the points it reserved are the ones it drives through.
@@ -67,9 +74,10 @@ import numpy as np
 
 from intersection_cosim.control.base import ControlContext, Decisions, Diagnostics, World
 from intersection_cosim.control.safety.exit_room import exit_room_caps
-from intersection_cosim.control.baselines.reservations import FcfsSettings, Grant, Reservations, time_to_cover
+from intersection_cosim.control.baselines.reservations import (FcfsSettings, Grant, Reservations,
+                                                                not_before_vehicle_ahead, time_to_cover)
+from intersection_cosim.control.baselines.fcfs_guard import FcfsGuard, leader_caps
 from intersection_cosim.control.safety.kinematics import stopping_acceleration
-from intersection_cosim.control.safety.onboard import krauss_safe_speed
 from intersection_cosim.network.conflicts import (
     KIND_CONFLUENCE,
     KIND_CROSS,
@@ -88,21 +96,6 @@ class _Arrivals(NamedTuple):
     t_e: np.ndarray  # [s] earliest arrival (now, past the line); never before the vehicle ahead
     v_e: np.ndarray  # [m/s] speed at the earliest arrival
     cannot_stop: np.ndarray  # bool: can no longer stop before the line at max_brake
-
-
-def _not_before_vehicle_ahead(world: World, past: np.ndarray, t_e: np.ndarray) -> np.ndarray:
-    """``t_e`` [s] with each approaching vehicle's arrival at least 1 ms after that of the vehicle
-    ahead on its approach lane (a new array)."""
-    t_e = t_e.copy()
-    by_lane: dict[str, list[int]] = {}
-    for k in range(len(world)):
-        if not past[k]:
-            by_lane.setdefault(world.lanes[k] if world.lanes else world.path_ids[k], []).append(k)
-    for ks in by_lane.values():
-        ks.sort(key=lambda k: -world.s[k])
-        for a, b in zip(ks, ks[1:]):
-            t_e[b] = max(t_e[b], t_e[a] + 1e-3)
-    return t_e
 
 
 class FcfsController:
@@ -129,10 +122,14 @@ class FcfsController:
                                              context.model.vehicle_length)
         self._approach_lane = {pid: p.approach_lane for pid, p in self.paths.items()}
         self._point_key: dict = {}
+        self.guard = FcfsGuard(context, self.fs) if self.fs.safety_filter else None
 
     def diagnostics(self) -> Diagnostics:
-        """Reservations are granted, not solved, and gaps come from the slots, not a filter."""
-        return Diagnostics()
+        """Reservations are granted, not solved; the safety filter's counts (none without it)."""
+        if getattr(self, "guard", None) is None:
+            return Diagnostics()
+        f = self.guard.filter
+        return Diagnostics(None, f.filtered, f.cleared, f.pedestrian_holds)
 
     def _key(self, *parts) -> int:
         return self._point_key.setdefault(parts, len(self._point_key))
@@ -179,8 +176,11 @@ class FcfsController:
         order = [k for k in order if world.ids[k] not in held]
         self._grant_in_order(world, arrivals, order, paths_present, busy)  # rule 2
         accel = self._commands(world, arrivals, active, held)  # rule 3
-        self._leader_caps(world, active, accel)
-        return self._decisions(world, active, release, accel, arrivals.v)
+        leader_caps(world, self.table, active, accel, self.model.vehicle_length, self.fs.follow_gap,
+                    self.fs.max_brake, self.ctx.control_period)
+        decisions = self._decisions(world, active, release, accel, arrivals.v)
+        self._guard(world, arrivals, active, held, decisions)  # rule 6
+        return decisions
 
     def _forget_departed(self, world: World, active: list[int]) -> list[str]:
         """Drop the grants of vehicles no longer in the world; return the ids to release to SUMO
@@ -203,7 +203,7 @@ class FcfsController:
         t_e = np.where(past, t, t + time_to_cover(d, v, fs.comfort_accel, vmax))
         v_e = np.where(past, v, np.minimum(vmax, np.sqrt(v * v + 2 * fs.comfort_accel * np.maximum(d, 0))))
         cannot_stop = v * v / (2 * fs.max_brake) >= d - fs.follow_gap
-        return _Arrivals(s_stop, d, past, v, _not_before_vehicle_ahead(world, past, t_e), v_e, cannot_stop)
+        return _Arrivals(s_stop, d, past, v, not_before_vehicle_ahead(world, past, t_e), v_e, cannot_stop)
 
     def _keep_committed(self, world: World, arr: _Arrivals, paths_present: set[str],
                         observed: np.ndarray | None = None) -> tuple[list[int], Reservations]:
@@ -215,6 +215,8 @@ class FcfsController:
         for k in range(len(world)):
             vid = world.ids[k]
             if observed is not None and observed[k]:
+                if not arr.past[k] and arr.v[k] < self.fs.standing_speed:
+                    continue  # stands short of its line: SUMO holds it (docstring, Mixed traffic)
                 keys, s_in, s_out = self._points(world.path_ids[k], paths_present)
                 keep = world.s[k] <= s_out
                 busy.add(keys[keep], *self._human_occupancy(world, k, arr, s_in[keep], s_out[keep]))
@@ -347,48 +349,42 @@ class FcfsController:
                 decisions.exit_lane[vid] = self.paths[world.path_ids[k]].exit_lane
         return decisions
 
-    def _leader_caps(self, world: World, active: list[int], accel: np.ndarray) -> None:
-        """Cap each active vehicle's acceleration by Krauss' safe speed behind its leader."""
-        fs, ms = self.fs, self.model
-        period = self.ctx.control_period
-        idx = self.table.indices(world.path_ids)
-        length = ms.vehicle_length
-        for i in active:
-            p = idx[i]
-            kinds = self.table.kind[p, idx]
-            s_cp_i = self.table.s_a[p, idx]
-            s_cp_j = self.table.s_b[p, idx]
-            # following: shared stretch from s = 0 on both paths; leader ahead, rear not past its end
-            foll = (kinds == KIND_FOLLOWING) & (world.s > world.s[i]) & (world.s[i] < s_cp_i) \
-                & (world.s - length < s_cp_j)
-            gap_f = world.s - world.s[i]
-            # confluence: leader past the merge point and ahead of i relative to it
-            rel_i = world.s[i] - s_cp_i
-            rel_j = world.s - s_cp_j
-            conf = (kinds == KIND_CONFLUENCE) & (rel_j >= 0) & (rel_j > rel_i)
-            gap_c = rel_j - rel_i
-            gap = np.where(foll, gap_f, np.where(conf, gap_c, np.inf))
-            gap[i] = np.inf
-            j = int(np.argmin(gap))
-            if not np.isfinite(gap[j]):
-                continue
-            v_safe = krauss_safe_speed(float(gap[j]) - length - fs.follow_gap, float(world.v[j]),
-                                       fs.max_brake, period)
-            accel[i] = min(accel[i], (v_safe - float(world.v[i])) / period)
+    def _guard(self, world: World, arr: _Arrivals, active: list[int], held: dict[str, float],
+               decisions: Decisions) -> None:
+        """Rule 6: the safety filter's rules (fcfs_guard.py) on the step's accelerations, each AV's
+        plan its grant flown (a held one stops before its line); the caps on guests go to their owners."""
+        if self.guard is None:
+            return
+        self.guard.release(decisions.release)
+        if not active:
+            return
+        plans, options = {}, {}
+        for k in active:
+            vid = world.ids[k]
+            grant = None if vid in held else self.grants.get(vid)
+            plans[vid] = self.guard.plan(float(world.s[k]), float(arr.v[k]), decisions.accel[vid],
+                                         float(arr.s_stop[k]), grant, bool(arr.past[k]), world.time)
+            options[vid] = self.paths[world.path_ids[k]].exit_lane
+        result = self.guard.apply(world, decisions.accel, plans, options)
+        decisions.accel.update(result.accel)
+        decisions.caps.update(result.guest_caps)
 
     def fallback(self, world: World) -> Decisions:
-        """Comfortable braking for approaching vehicles that can still stop; the rest keep going."""
+        """Comfortable braking for approaching vehicles that can still stop, the committed ones
+        keep going; through the safety filter (rule 6) as every step."""
         decisions = Decisions(fallback=True)
         period = self.ctx.control_period
         observed = world.observed()
+        active, stopping = [], {}
         for k in range(len(world)):
             if world.role[k] == "outside" or (observed is not None and observed[k]):
                 continue
             vid = world.ids[k]
-            if vid in self.committed:
-                a = self.fs.comfort_accel
-            else:
-                a = -self.fs.comfort_accel
+            a = self.fs.comfort_accel if vid in self.committed else -self.fs.comfort_accel
+            if vid not in self.committed:
+                stopping[vid] = a
             decisions.accel[vid] = max(a, -float(world.v[k]) / period)
             self.controlled.add(vid)
+            active.append(k)
+        self._guard(world, self._arrivals(world), active, stopping, decisions)
         return decisions

@@ -27,9 +27,12 @@ class FcfsSettings:
     exit_room: bool = True  # [-] don't block the box: an uncommitted vehicle whose exit lane lacks
     #                         room is held at its stop line without a reservation (control/safety/exit_room.py)
     exit_min_gap: float = 2.5  # [m] standstill gap a vehicle needs on its exit lane (SUMO's minGap)
-    standing_speed: float = 1.0  # [m/s] a vehicle inside the junction slower than this claims exit room
+    standing_speed: float = 1.0  # [m/s] a vehicle inside the junction slower than this claims exit room;
+    #                              a human slower than this short of its stop line reserves nothing
     human_slow_accel: float = 0.5  # [m/s^2] a human driver's slowest plausible start: its reservation
     #                                lasts until it could have cleared a point accelerating this gently
+    safety_filter: bool = True  # [-] run the game controllers' safety rules (control/safety/, default
+    #                             [controller.safety] settings) on every command (false: an ablation)
 
     def check(self) -> list[tuple[str, str]]:
         problems = positive(self, "comfort_accel", "max_brake", "slot_step", "max_delay")
@@ -51,6 +54,22 @@ def time_to_cover(d, v0, accel: float, v_max: float):
     d_acc = (v_max ** 2 - v0 ** 2) / (2.0 * accel)
     t_acc = (np.sqrt(v0 ** 2 + 2.0 * accel * np.minimum(d, d_acc)) - v0) / accel
     return t_acc + np.maximum(d - d_acc, 0.0) / v_max
+
+
+def not_before_vehicle_ahead(world, past: np.ndarray, t_e: np.ndarray) -> np.ndarray:
+    """``t_e`` [s] (earliest arrivals) with each approaching vehicle's arrival at least 1 ms after
+    that of the vehicle ahead on its approach lane (a new array); ``world``: the step's World,
+    ``past``: bool per vehicle, not approaching."""
+    t_e = t_e.copy()
+    by_lane: dict[str, list[int]] = {}
+    for k in range(len(world)):
+        if not past[k]:
+            by_lane.setdefault(world.lanes[k] if world.lanes else world.path_ids[k], []).append(k)
+    for ks in by_lane.values():
+        ks.sort(key=lambda k: -world.s[k])
+        for a, b in zip(ks, ks[1:]):
+            t_e[b] = max(t_e[b], t_e[a] + 1e-3)
+    return t_e
 
 
 def free_slot(enter: np.ndarray, leave: np.ndarray, busy_in: np.ndarray, busy_out: np.ndarray,
