@@ -79,6 +79,27 @@ def _plan_trajectory(s0, v0, a, M, t):  # pragma: no cover - compiled
     return full
 
 
+def shifted_trajectory(a: np.ndarray, v_end: float, s1: float, v1: float, hm: HorizonMatrices) -> tuple:
+    """The plan one solver step later as one compiled call (games.problem.shift_plan): the
+    accelerations [m/s^2] ``a`` (N,) without a_0 and with the last repeated, kept at v >= 0 from
+    the plan's last speed ``v_end`` [m/s], and (v_0..v_N [m/s], s_0..s_N [m]) of them from s1 [m],
+    v1 [m/s] (the plan's second state), the same numbers as :func:`plan_trajectory` of them."""
+    out_a, full = _shifted_trajectory(a, float(v_end), float(s1), float(v1), hm.dt, hm.M, hm.t)
+    return out_a, full[:hm.n + 1], full[hm.n + 1:]
+
+
+@njit(cache=True)
+def _shifted_trajectory(a, v_end, s1, v1, dt, M, t):  # pragma: no cover - compiled
+    n = a.shape[0]
+    out = np.empty(n)
+    for i in range(n - 1):
+        out[i] = a[i + 1]
+    lo = -v_end / dt
+    last = a[n - 1]
+    out[n - 1] = lo if lo > last else last  # Python's max(last, lo)
+    return out, _plan_trajectory(s1, v1, out, M, t)
+
+
 def rollout(s0: float, v0: float, a, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """[m/s], [m]: speeds v_1..v_N and positions s_1..s_N; ``a`` of shape (N,) or (m, N)."""
     a = np.asarray(a, dtype=float)

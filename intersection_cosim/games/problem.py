@@ -20,7 +20,7 @@ from typing import Sequence
 
 import numpy as np
 
-from intersection_cosim.games.dynamics import horizon_matrices, plan_trajectory
+from intersection_cosim.games.dynamics import horizon_matrices, plan_trajectory, shifted_trajectory
 from intersection_cosim.games.settings import GameSettings
 
 INTERACTION_KINDS = ("cross", "confluence", "following")
@@ -130,9 +130,9 @@ class Problem:
                 out.append(f"player {k}: v_max must be finite and > 0")
             if math.isfinite(p.kappa) and not 0.0 <= p.kappa <= 1.0:
                 out.append(f"player {k}: kappa must lie in [0, 1]")
-            if p.leader is not None and not all(np.all(np.isfinite(x)) for x in p.leader):
+            if p.leader is not None and not all(np.isfinite(x).all() for x in p.leader):
                 out.append(f"player {k}: leader trajectory is not finite")
-            if any(not all(np.all(np.isfinite(x)) for x in c) for c in p.crossers):
+            if any(not all(np.isfinite(x).all() for x in c) for c in p.crossers):
                 out.append(f"player {k}: a crossing trajectory is not finite")
         for m, it in enumerate(self.interactions):
             if it.kind not in INTERACTION_KINDS:
@@ -285,18 +285,21 @@ def shift_plan(plan: Plan) -> Plan:
 
     Speeds and positions start from (s_1, v_1); the appended step is kept at v >= 0.
     """
-    dt = plan.dt
-    if plan.steps == 0:
+    n = plan.steps
+    if n == 0:
         return plan
-    a = np.concatenate((plan.accelerations[1:], plan.accelerations[-1:]))
-    v_end = plan.speeds[-1]
-    a[-1] = max(a[-1], -v_end / dt)
+    a, v, s = shifted_trajectory(np.asarray(plan.accelerations, dtype=float), plan.speeds[-1], plan.positions[1],
+                                 plan.speeds[1], horizon_matrices(n, float(plan.dt)))
     duals = None
     if plan.duals is not None:
-        n = plan.steps
         y = plan.duals
-        duals = np.concatenate((y[1:n], y[n - 1:n], y[n + 1:], y[-1:]))
-    return Plan.from_accelerations(float(plan.positions[1]), float(plan.speeds[1]), a, dt, duals)
+        if y.shape == (2 * n,):
+            duals = np.empty(2 * n)
+            duals[:n - 1], duals[n - 1] = y[1:n], y[n - 1]
+            duals[n:2 * n - 1], duals[2 * n - 1] = y[n + 1:], y[-1]
+        else:
+            duals = np.concatenate((y[1:n], y[n - 1:n], y[n + 1:], y[-1:]))
+    return Plan(a, v, s, plan.dt, duals)
 
 
 def shift_plans(plans: Sequence[Plan] | GameResult) -> tuple[Plan, ...]:

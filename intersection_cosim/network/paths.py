@@ -69,9 +69,10 @@ class MovementPath:
             return float("inf")
         return float(self.lane_starts[self.stop_index + 1])
 
-    @property
+    @functools.cached_property
     def lane_limits(self) -> tuple[tuple[float, float, float], ...]:
-        """(start [m], end [m], speed limit [m/s]) of each of ``lanes`` along the path."""
+        """(start [m], end [m], speed limit [m/s]) of each of ``lanes`` along the path (built on
+        first use: the safety filter and the relations read it for every vehicle every step)."""
         ends = self.lane_starts[1:] + (self.length,)
         return tuple(zip(self.lane_starts, ends, self.speed_limits))
 

@@ -62,7 +62,7 @@ from intersection_cosim.control.safety.filter import SafetyFilter
 from intersection_cosim.control.safety.kinematics import occupancy_times
 from intersection_cosim.control.game.solo import SoloPlanner
 from intersection_cosim.games.nash import nash_equilibrium
-from intersection_cosim.games.problem import Interaction, Plan, Player, Problem
+from intersection_cosim.games.problem import Interaction, Plan, Player, Problem, shift_plan
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.games.solo_batch import SMALL_BATCH, solo_responses
 from intersection_cosim.games.qp import reset_workspaces, solve_count
@@ -152,7 +152,8 @@ class GameController:
         solo_responses([Problem((Player(0.0, 5.0, 0.5),))] * SMALL_BATCH, self.solver.settings, self.model)
         occupancy_times(np.array([[0.0, 1.0]]), np.array([2], np.intp), np.array([0.1]), np.zeros(1, np.intp),
                         np.array([0.5]))
-        Plan.from_accelerations(0.0, 5.0, np.zeros(self.solver.settings.problem.steps), self.solver.settings.problem.dt)
+        shift_plan(Plan.from_accelerations(0.0, 5.0, np.zeros(self.solver.settings.problem.steps),
+                                           self.solver.settings.problem.dt))
 
     def diagnostics(self) -> Diagnostics:
         return Diagnostics(tuple(self.convergence), self.safety.filtered, self.safety.cleared,

@@ -99,7 +99,7 @@ class PlanMemory:
 
     def prune_warm(self, present: set[str]) -> None:
         """Drop the warm starts of problems with a vehicle no longer controlled."""
-        self._warm = {key: v for key, v in self._warm.items() if all(x in present for x in key.vehicles())}
+        self._warm = {key: v for key, v in self._warm.items() if present.issuperset(key.vehicles())}
 
     def shifted(self, plan: Plan, periods: int = 1) -> Plan:
         """``plan`` moved on by ``periods`` control periods."""

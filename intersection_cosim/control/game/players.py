@@ -32,9 +32,10 @@ def leader_trajectory(world: World, leader: Leader, memory: PlanMemory) -> tuple
     if plan is None:
         plan = memory.coasting_plan(world, k)
     s, v = plan.positions[1:], plan.speeds[1:]
-    parted = s > leader.until
-    if parted.any():  # past the end of the shared stretch the leader is out of the way
-        s = np.where(parted, s + FAR, s)
+    if leader.until < math.inf:  # (no leader's s is past an infinite end)
+        parted = s > leader.until
+        if parted.any():  # past the end of the shared stretch the leader is out of the way
+            s = np.where(parted, s + FAR, s)
     return s, v
 
 

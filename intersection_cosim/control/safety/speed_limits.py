@@ -27,12 +27,22 @@ def lane_speed_holds(world: World, movements: Movements, options: Mapping[str, s
     holds in ``options`` may change up to the junction, and SUMO takes the turn it is given
     then), so the lowest of their limits holds."""
     out = {}
+    seen: dict[tuple, tuple[set, float]] = {}  # (path, exit choices, held exit) -> (paths, floor [m/s])
     for k, vid in enumerate(world.ids):
         if world.role[k] == "outside" or world.is_human(k):
             continue
         pid = world.path_ids[k]
-        exits = set(world.exit_choices.get(vid, ())) | ({options[vid]} if vid in options else set())
-        pids = {movements.siblings.get((pid, o), pid) for o in exits} | {pid}
+        key = (pid, world.exit_choices.get(vid, ()), options[vid] if vid in options else None, vid in options)
+        if (hit := seen.get(key)) is None:
+            exits = set(world.exit_choices.get(vid, ())) | ({options[vid]} if vid in options else set())
+            pids = {movements.siblings.get((pid, o), pid) for o in exits} | {pid}
+            # no limit binds a vehicle at most SPEED_TOL above the lowest (limit_acceleration)
+            floor = min((limit + SPEED_TOL for p in pids for _, _, limit in movements.paths[p].lane_limits),
+                        default=math.inf)
+            seen[key] = hit = (pids, floor)
+        pids, floor = hit
+        if float(world.v[k]) <= floor:
+            continue
         cap = min(limit_acceleration(movements.paths[p], float(world.s[k]), float(world.v[k]), decel, period)
                   for p in pids)
         if cap < math.inf:

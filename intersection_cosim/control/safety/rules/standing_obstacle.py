@@ -70,6 +70,10 @@ def run(ctx: StepContext, step: FilterStep) -> None:
     standing = np.flatnonzero(np.asarray(world.v) < st.clear_speed)
     if len(standing) == 0:
         return
+    # a standing vehicle the filter decides for is not an obstacle (ctx.accel stays as it is here)
+    others = [o for o in standing.tolist() if world.ids[o] not in ctx.accel]
+    if not others:
+        return
     model, index = j.model, {vid: k for k, vid in enumerate(world.ids)}
     for vid in ctx.accel:
         k = index.get(vid)
@@ -78,8 +82,8 @@ def run(ctx: StepContext, step: FilterStep) -> None:
         v_k, brake = float(world.v[k]), ctx.brake(k)  # [m/s], [m/s^2] (< 0)
         reach = v_k * j.period + v_k * v_k / (-2.0 * brake) + st.margin + LOOKAHEAD  # [m]
         length_k = world.length_of(k, model.vehicle_length)
-        for o in standing.tolist():
-            if o == k or world.ids[o] in ctx.accel or (world.lanes and world.lanes[o] == world.lanes[k]):
+        for o in others:
+            if o == k or (world.lanes and world.lanes[o] == world.lanes[k]):
                 continue
             far = math.hypot(float(world.x[o] - world.x[k]), float(world.y[o] - world.y[k]))
             if far > reach + length_k + world.length_of(o, model.vehicle_length):
