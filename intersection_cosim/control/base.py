@@ -185,7 +185,7 @@ class ControlContext:
     bodies: tuple[tuple[float, float], ...] = ()  # [m] (length, width) of each of the run's vehicle
     #                                               types ((): every vehicle has ModelSettings' body)
     position_noise: float = 0.0  # [m] standard deviation of each vehicle position the controller sees
-    #                              (a V2X link's noise; 0: exact)
+    #                              (a converged V2X track's, v2x/tracker.py; 0: exact)
 
     @property
     def touch_width(self) -> float:

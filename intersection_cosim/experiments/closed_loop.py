@@ -26,6 +26,7 @@ from intersection_cosim.network.outline import junction_centre
 from intersection_cosim.results.overlaps import OverlapLog
 from intersection_cosim.scenario.model import Scenario
 from intersection_cosim.v2x import Channel
+from intersection_cosim.v2x.tracker import steady_sigma
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +77,7 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
     controller.setup(ControlContext(movements=inputs.movements, model=scn.model,
                                     control_period=scn.controller.period, settings=scn.controller_settings,
                                     etm=scn.controller.etm, bodies=bodies,
-                                    position_noise=scn.v2x.position_noise if scn.v2x.enabled else 0.0))
+                                    position_noise=_seen_position_noise(scn)))
     scheduler = NetworkScheduler(controller, scn.controller.budget_ms, scn.controller.realtime,
                                  scn.controller.work_clock_ms)
     if gui is not None and not scn.network.generated:  # look at the managed junction, not the origin
@@ -93,6 +94,15 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
     # libsumo prints its warnings on the console besides sumo.log: they stay in the file
     with stderr_silenced() if view is None else contextlib.nullcontext():
         return _simulate(scn, folder, inputs, sim, scheduler, observers, view)
+
+
+def _seen_position_noise(scn: Scenario) -> float:
+    """[m] the standard deviation of the positions the controller sees: a converged V2X track's
+    (v2x/tracker.py), 0 without a V2X link."""
+    v = scn.v2x
+    if not v.enabled:
+        return 0.0
+    return steady_sigma(v.position_noise, v.speed_noise, v.period or scn.controller.period, v.track_accel_noise)
 
 
 def _simulate(scn: Scenario, folder: Path, inputs: RunInputs, sim, scheduler, observers: list, view) -> Simulated:

@@ -365,11 +365,15 @@ class SumoSimulation:
         by the onboard guard (sim/onboard.py) behind the vehicle ahead.
 
         Controlled vehicles run with speed mode 0, so the speed SUMO realises at the end of the
-        step is exactly the commanded one (setSpeed every step; tests check this).
+        step is exactly the commanded one (setSpeed every step; tests check this); a command is
+        therefore held to what the vehicle can do: no braking harder than its vType's
+        emergencyDecel.
         """
         for vid, accel in self.commands.items():
             v = self.states[vid][libsumo.VAR_SPEED]
-            target = max(0.0, v + accel * self.step_length)  # [m/s]
+            body = self.bodies.get(vid)
+            hardest = max(body[4], body[3]) if body is not None else math.inf  # [m/s^2] its emergency braking
+            target = max(0.0, v + max(accel, -hardest) * self.step_length)  # [m/s]
             if self.guard is not None:
                 target = self.guard.speed(vid, v, target, self.states, self.bodies, self.min_gaps)
             self.api.vehicle.setSpeed(vid, target)

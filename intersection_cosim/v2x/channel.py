@@ -9,9 +9,13 @@ What the controller sees (:meth:`Channel.observe`): only vehicles from which a m
 accepted. A vehicle no message has arrived from yet is unknown to the controller: it is not in
 the World, gets no command and drives on SUMO's own model meanwhile (it is inserted at the start
 of its arm, far from the crossings, and is known one latency later unless its messages are lost).
-A known vehicle is shown at its last accepted state extrapolated to now along its path (dead
-reckoning at the message's constant acceleration, clipped at v >= 0; x, y and heading are those
-of the path at the extrapolated arc length, lane and role follow from it). A vehicle that leaves
+A known vehicle is shown at its track's estimate (its accepted messages fused by a Kalman filter,
+v2x/tracker.py) extrapolated to now along its path (dead reckoning at the last message's constant
+acceleration, clipped at v >= 0; x, y and heading are those of the path at the extrapolated arc
+length, lane and role follow from it) -- extrapolated not to now but to when a command sent now
+reaches the vehicle, ``latency`` later: the controller decides for the state its command acts
+on (a predictor for the link's known delay), so its stopping distances and time gaps hold for
+the vehicle as it will be, not as it was when the command was made. A vehicle that leaves
 the simulation is dropped (the infrastructure knows a vehicle has left the network).
 
 Plausibility (on by default): a message is rejected when its stamp is not newer than the
@@ -51,6 +55,7 @@ from intersection_cosim.v2x.attacks import History, attacked
 from intersection_cosim.v2x.messages import Command, StateMessage
 from intersection_cosim.v2x.reckoning import dead_reckon, reach, tolerances
 from intersection_cosim.v2x.settings import V2XSettings
+from intersection_cosim.v2x.tracker import TrackState, fuse, start
 
 EPS = 1e-9  # [s] time comparisons
 STOP_LINE_GAP = 0.5  # [m] a suspect sender approaching is held this far before its stop line (still "ready")
@@ -64,6 +69,7 @@ class Track:
     """What the controller knows of one sender."""
 
     accepted: StateMessage  # its last accepted message
+    state: TrackState  # the Kalman estimate fused from its accepted messages (v2x/tracker.py)
     suspect: bool = False  # its newest message was rejected: predicted conservatively
     rejected_since: float | None = None  # [s] stamp of the first of its messages rejected in a row
 
@@ -141,11 +147,22 @@ class Channel:
             elif not ok:
                 self.counts["false_rejections"] += 1
             if ok:
-                self.tracks[msg.sender] = Track(msg)
+                self.tracks[msg.sender] = Track(msg, self._fused(track, msg))
             else:
                 track.suspect = True
                 if track.rejected_since is None:
                     track.rejected_since = msg.stamp
+
+    def _fused(self, track: Track | None, msg: StateMessage) -> TrackState:
+        """The sender's estimate with ``msg`` accepted: fused into its track, or a new track from
+        ``msg`` alone for a first message, a resync, an attacked track's recovery or another
+        approach lane (a position along another path)."""
+        st, paths = self.settings, self.movements.paths
+        fresh = track is None or track.suspect or track.accepted.path_id not in paths or \
+            msg.path_id not in paths or paths[track.accepted.path_id].lanes[0] != paths[msg.path_id].lanes[0]
+        if fresh:
+            return start(msg.stamp, msg.s, msg.v, msg.a, st.position_noise, st.speed_noise)
+        return fuse(track.state, msg.stamp, msg.s, msg.v, msg.a, st.position_noise, st.speed_noise, st.track_accel_noise)
 
     def plausible(self, last: StateMessage, msg: StateMessage) -> bool:
         """Whether ``msg`` is consistent with the sender's ``last`` accepted message and its limits."""
@@ -179,16 +196,17 @@ class Channel:
     def estimate(self, vid: str, time: float) -> tuple[float, float, float]:
         """(s [m], v [m/s], a [m/s^2]) the controller assumes for known sender ``vid`` at ``time``."""
         track = self.tracks[vid]
-        m, age = track.accepted, time - track.accepted.stamp
+        m, est, age = track.accepted, track.state, time - track.state.stamp
+        est = dataclasses.replace(est, v=max(est.v, 0.0))
         if track.suspect:
             st = self.settings
-            r = reach(m.s, m.v, age, st.max_accel, st.max_decel, st.max_speed)
+            r = reach(est.s, est.v, age, st.max_accel, st.max_decel, st.max_speed)
             s_stop = self.movements.paths[m.path_id].s_stop
-            if m.s < s_stop:  # approaching: as near the stop line (still before it) and as fast as it can be
-                return min(r.s_hi, max(m.s, s_stop - STOP_LINE_GAP)), r.v_hi, 0.0
+            if est.s < s_stop:  # approaching: as near the stop line (still before it) and as fast as it can be
+                return min(r.s_hi, max(est.s, s_stop - STOP_LINE_GAP)), r.v_hi, 0.0
             return r.s_lo, r.v_lo, 0.0  # in the junction: as late to leave it as it can be
-        s, v = dead_reckon(m.s, m.v, m.a, age)
-        return s, v, (m.a if v > 0.0 else 0.0)
+        s, v = dead_reckon(est.s, est.v, est.a, age)
+        return s, v, (est.a if v > 0.0 else 0.0)
 
     def observe(self, world: World) -> World:
         """The World the controller sees at ``world.time``, built from the messages that arrived;
@@ -207,7 +225,7 @@ class Channel:
         for j, vid in enumerate(ids):
             msg = self.tracks[vid].accepted
             path = self.movements.paths[msg.path_id]
-            s, v, a = self.estimate(vid, world.time)
+            s, v, a = self.estimate(vid, world.time + self.settings.latency)  # when a command sent now acts
             s = float(min(max(s, 0.0), path.length))
             lane = path.lane_at(s)[0]
             role = self.movements.role(lane)

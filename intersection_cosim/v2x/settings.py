@@ -60,13 +60,16 @@ class V2XSettings:
     max_decel: float = 4.5  # [m/s^2] plausibility: hardest braking (the vType's decel)
     max_speed: float = 20.0  # [m/s] plausibility: highest speed a vehicle can drive
     resync: float = 2.0  # [s] a sender rejected this long in a row is taken at its newest message again
+    # [m/s^2] the receiver's track of a sender (v2x/tracker.py): how much its acceleration may change
+    # between two messages, unannounced (the Kalman filter's process noise)
+    track_accel_noise: float = 2.0
     attack: tuple[AttackSettings, ...] = ()  # the [[v2x.attack]] tables
 
     def check(self) -> list[tuple[str, str]]:
         problems = non_negative(self, "latency", "position_noise", "speed_noise", "period")
         if not 0.0 <= self.loss <= 1.0:
             problems.append(("loss", "must be in [0, 1]"))
-        problems += positive(self, "max_accel", "max_decel", "max_speed", "resync")
+        problems += positive(self, "max_accel", "max_decel", "max_speed", "resync", "track_accel_noise")
         return problems
 
     @property
