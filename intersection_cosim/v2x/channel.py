@@ -12,10 +12,7 @@ of its arm, far from the crossings, and is known one latency later unless its me
 A known vehicle is shown at its track's estimate (its accepted messages fused by a Kalman filter,
 v2x/tracker.py) extrapolated to now along its path (dead reckoning at the last message's constant
 acceleration, clipped at v >= 0; x, y and heading are those of the path at the extrapolated arc
-length, lane and role follow from it) -- extrapolated not to now but to when a command sent now
-reaches the vehicle, ``latency`` later: the controller decides for the state its command acts
-on (a predictor for the link's known delay), so its stopping distances and time gaps hold for
-the vehicle as it will be, not as it was when the command was made. A vehicle that leaves
+length, lane and role follow from it). A vehicle that leaves
 the simulation is dropped (the infrastructure knows a vehicle has left the network).
 
 Plausibility (on by default): a message is rejected when its stamp is not newer than the
@@ -225,7 +222,7 @@ class Channel:
         for j, vid in enumerate(ids):
             msg = self.tracks[vid].accepted
             path = self.movements.paths[msg.path_id]
-            s, v, a = self.estimate(vid, world.time + self.settings.latency)  # when a command sent now acts
+            s, v, a = self.estimate(vid, world.time)
             s = float(min(max(s, 0.0), path.length))
             lane = path.lane_at(s)[0]
             role = self.movements.role(lane)

@@ -53,18 +53,16 @@ def test_latency_shifts_by_whole_messages(movements, latency, messages):
     assert [len(w) for w in seen[:messages]] == [0] * messages  # nothing has arrived yet
     assert len(seen[messages]) == 1
     assert ch.tracks["A"].accepted.stamp == pytest.approx(times[-1] - messages * PERIOD)
-    # constant speed: dead reckoning puts it exactly where it will be when a command sent now
-    # arrives, one latency later
-    assert seen[-1].s[0] == pytest.approx(20.0 + 10.0 * (times[-1] + latency))
+    # constant speed: dead reckoning puts it exactly where it is
+    assert seen[-1].s[0] == pytest.approx(20.0 + 10.0 * times[-1])
 
 
 def test_dead_reckoning_along_the_path_with_consistent_xy_and_heading(movements):
     ch = Channel(V2XSettings(latency=0.5), movements, PERIOD, seed=1)
     ch.uplink(truth(movements, 0.0, 60.0, 8.0, a=-2.0))
     w = ch.observe(truth(movements, 0.5, 63.75, 7.0))
-    # age 1 s: 0.5 s up, and 0.5 s until a command sent now acts; s + v age + a age^2 / 2
-    assert w.s[0] == pytest.approx(60.0 + 8.0 * 1.0 - 1.0)
-    assert w.v[0] == pytest.approx(6.0)
+    assert w.s[0] == pytest.approx(60.0 + 8.0 * 0.5 - 0.25)  # s + v age + a age^2 / 2
+    assert w.v[0] == pytest.approx(7.0)
     path = movements.paths[PID]
     assert (w.x[0], w.y[0]) == pytest.approx(tuple(path.point_at(w.s[0])))
     assert w.heading[0] == pytest.approx(path.heading_at(w.s[0]))
