@@ -152,7 +152,7 @@ def execute_job(job: Job) -> dict:
         os.remove(job.failed_file)  # an earlier attempt's error; this attempt writes its own
     cmd = [sys.executable, "-m", "intersection_cosim.experiments.executors"]
     proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True, errors="replace")
+                            text=True, errors="replace", env={**os.environ, PARENT_ENV: str(os.getpid())})
     with _children_lock:
         _children.add(proc)
     try:
@@ -239,9 +239,28 @@ def default_workers() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+ORPHAN_POLL = 1.0  # [s] how often a run's process checks that the process that started it lives
+PARENT_ENV = "INTERSECTION_COSIM_PARENT_PID"  # the pid of the process that started a run's process
+
+
+def _exit_when_orphaned(parent: int, poll: float = ORPHAN_POLL) -> None:
+    """End this process (status 137, as killed) once ``parent`` is no longer its parent (at once if
+    it has gone already, while this process was starting): a sweep or stress search
+    killed hard (``kill -9``) leaves its runs behind, and a rerun that resumes it must not meet a
+    run still writing the folder it runs again. The run's temporary folder is left for the rerun
+    to remove, as after any kill."""
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(poll)
+        os._exit(137)
+
+    threading.Thread(target=watch, name="orphan-watch", daemon=True).start()
+
+
 def _child_main() -> int:
     """Entry point of a run's own process: the job as JSON on stdin."""
     signal.signal(signal.SIGINT, signal.default_int_handler)  # even if the parent ignored SIGINT
+    _exit_when_orphaned(int(os.environ.get(PARENT_ENV, os.getppid())))
     job = Job.from_json(sys.stdin.read())
     try:
         run_job(job)
