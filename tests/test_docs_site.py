@@ -45,6 +45,17 @@ def test_decision_records_are_numbered_and_indexed():
         assert record.read_text().startswith(f"# {n:03d}. ")
 
 
+def test_no_text_file_holds_a_merge_conflict_marker():
+    """A merge left `<<<<<<<` / `=======` / `>>>>>>>` lines in a page once; MkDocs renders them."""
+    marker = re.compile(r"^(<{7} |={7}$|>{7} )", re.M)
+    roots = [ROOT / d for d in ("docs", "intersection_cosim", "tests", "scripts", "scenarios")]
+    files = [p for r in roots for p in r.rglob("*") if p.suffix in {".md", ".py", ".toml", ".yml"}]
+    files += [ROOT / "README.md", ROOT / "pyproject.toml", ROOT / "mkdocs.yml"]
+    assert len(files) > 100
+    marked = [p.relative_to(ROOT).as_posix() for p in files if marker.search(p.read_text())]
+    assert marked == []
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("mkdocs") is None,
                     reason='mkdocs is not installed (pip install -e ".[docs]")')
