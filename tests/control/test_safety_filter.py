@@ -78,6 +78,26 @@ def test_two_plans_at_a_crossing_together_one_brakes_to_stop_before_it(paths, mo
     assert held == {"S"} and f.filtered == 1 and f.cleared == 0
 
 
+def test_a_vehicle_just_short_of_its_stop_line_stays_out_at_the_line_not_before_the_zone(paths, movements,
+                                                                                         conflict_table):
+    """S creeps at 0.3 m/s 0.5 m before its stop line (inside ``margin``) and wants to go; L comes
+    at 8 m/s and ranks ahead (both plans reach the crossing about 3 s on). S stops at its line (-0.3^2 / (2 x 0.45 m)), not on into the junction
+    towards its zone, where the entry queue would rank it ahead of L (cross_2lane: an AV crept in
+    so and drove into a human SUMO let go)."""
+    t = conflict_table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    s_l, s_s = t.zone_in[p, q] - 20.0, float(t.s_stop[q]) - 0.5  # [m] L 2.5 s from its zone
+    assert t.zone_in[q, p] - GS.margin - s_s > 3.0  # [m] room to creep on before the zone
+    world = make_world(paths, 0.0, [("L", LEFT, s_l, 8.0), ("S", STRAIGHT, s_s, 0.3)])
+    plans = {"L": Plan.from_accelerations(s_l, 8.0, np.zeros(PROBLEM.steps), PROBLEM.dt),
+             "S": Plan.from_accelerations(s_s, 0.3, np.full(PROBLEM.steps, 2.5), PROBLEM.dt)}
+    f = FilterUnderTest(GS, t.s_stop, 0.1)
+    d = Decisions(accel={"L": 0.0, "S": 2.5})
+    f.apply(world, _relations(world, movements, t), plans, {}, d)
+    assert d.accel["L"] == 0.0
+    assert d.accel["S"] == pytest.approx(-0.3 ** 2 / (2 * 0.45), rel=1e-9)
+
+
 def test_under_position_noise_a_yielding_vehicle_stops_short_of_its_zone_by_the_slack(paths, movements,
                                                                                        conflict_table):
     """The same crossing as above with 0.85 m of gap slack (3 sqrt(2) x 0.2 m of V2X noise): the

@@ -11,6 +11,8 @@ a leader is shortened by it, so the rules' invariants hold for the true position
 
 from __future__ import annotations
 
+import math
+
 import functools
 from dataclasses import dataclass
 from typing import Mapping
@@ -208,7 +210,10 @@ class StepContext:
             if target is not None:
                 return creep_acceleration(s_k, v_k, target, st.clear_accel, self.junction.period)
         brake = self.brake(k)
-        for target in (s_stop - st.margin, enter - margin, enter - st.margin, enter - 0.05):
+        # one that has not reached its stop line stops at it, not on into the junction towards the
+        # zone: inside, the entry queue would rank it ahead of the vehicle it stays out for
+        line = min(s_stop, enter) - 0.05 if s_k < s_stop else -math.inf  # [m]
+        for target in (s_stop - st.margin, line, enter - margin, enter - st.margin, enter - 0.05):
             if target <= s_k:
                 continue
             a = stopping_acceleration(s_k, v_k, target)
