@@ -95,8 +95,9 @@ def test_a_person_on_the_road_out_holds_the_vehicle_at_its_stop_line_not_in_the_
 
 
 def test_a_vehicle_does_not_enter_a_crossing_it_could_not_leave_while_people_walk_there(fokr):
-    """Its leader's rear, standing or moving, is just past the crossing: it could have to stop on it,
-    in the people's way."""
+    """Its leader's rear is just past the crossing and would stay so were the leader to stop now
+    (braking at the vehicle's emergency braking, 4 m/s^2 here): it could have to stop on the
+    crossing, in the people's way."""
     movements, zones = fokr
     path, (c_in, _) = movements.paths[PATH], zones[PATH]
     far = Walker("p", c_in.lane, c_in.span[0] - 12.0, +1, 1.2)  # no conflict by the windows alone
@@ -104,8 +105,9 @@ def test_a_vehicle_does_not_enter_a_crossing_it_could_not_leave_while_people_wal
     assert _holds(fokr, s, 5.0, [far]) == {}
     blocked = _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 0.0))  # rear 0.5 m past the crossing
     assert blocked["A"] == pytest.approx(-25.0 / (2 * (6.0 - ST.margin)))
-    moving = _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 3.0))  # a queue that drives on may stop
+    moving = _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 1.0))  # it may stop 0.125 m on: in it
     assert moving["A"] == blocked["A"]
+    assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 3.0)) == {}  # it stops 1.1 m on: room
     assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 5.0, 0.0)) == {}  # room behind the crossing
     assert _holds(fokr, s, 5.0, [], lead=(c_in.zone_out + 0.5, 0.0)) == {}  # nobody there
 

@@ -10,9 +10,10 @@ the vehicle out of it (the ``pedestrians`` rule, rules/pedestrians.py, which sta
   ``pedestrian_speed_high`` if it is slower (a person may speed up), to its leaving it at its
   speed, at least ``pedestrian_speed_low`` (a standing person walks on at that speed); one that
   has passed the stretch, walking away, is clear.
-* A vehicle does not enter a crossing that people walk on or towards while its leader's rear is
-  less than ``margin`` past it, standing or moving: a queue that slows could leave it on the
-  crossing as the person walks in.
+* A vehicle does not enter a crossing that people walk on or towards while its leader's rear,
+  were the leader to stop now (braking as hard as the vehicle's own emergencyDecel), would be less
+  than ``margin`` past it: a queue that stops would leave it on the crossing as the person walks
+  in.
 * The vehicle waits at its stop line if it has not reached it, else stops ``pedestrian_margin``
   before the crossing; it brakes from the last moment at which ``brake_from`` [m/s^2] still stops
   it there after one more period at full acceleration (braking at the first sight of a person far
@@ -159,7 +160,8 @@ def _zone_hold(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | N
     if s >= zone.zone_in:  # in the zone: it drives on, unless it can stop at the edge short of a person
         return _edge_stop(world, k, zone, walkers, plan, settings, speed_floor, limits, period)
     coming = any(walker_window(w, zone.span, settings) is not None for w in walkers)
-    blocked = lead is not None and lead[0] < zone.zone_out + settings.margin and coming
+    blocked = (lead is not None and coming
+               and lead[0] + lead[1] ** 2 / (-2.0 * limits[2]) < zone.zone_out + settings.margin)
     conflict = _conflict(world, k, zone, walkers, plan, settings, speed_floor, limits[1])
     if not (blocked or conflict):
         return None
