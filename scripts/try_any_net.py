@@ -95,7 +95,7 @@ def routable_walks(net_file: str, walks: list, folder: Path) -> list:
     while walks:
         probe.write_text("\n".join(["<routes>"] + [f'    <person id="w{i}" depart="0" {_walk(*w)}</person>'
                                                     for i, w in enumerate(walks)] + ["</routes>", ""]))
-        refused = re.search(r"for person 'w(\d+)'", sumo_refusal(net_file, str(probe)) or "")
+        refused = re.search(r"for person 'w(\d+)'", sumo_refusal(net_file, (str(probe),)) or "")
         if refused is None:
             return walks
         del walks[int(refused.group(1))]

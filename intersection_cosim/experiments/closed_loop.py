@@ -140,9 +140,11 @@ def _simulate(scn: Scenario, folder: Path, inputs: RunInputs, sim, scheduler, ob
 def _route_error(scn: Scenario, exc: RouteRefusal) -> Exception:
     """The InputError of a route SUMO could not find in mid-run: one of the user's own route file
     (ours are checked when the scenario loads; anything else is a defect, raised as it is)."""
-    if scn.network.routes is None:
+    routes = scn.network.routes
+    if not routes:
         return RuntimeError(f"SUMO could not route a vehicle of the scenario's own demand {exc}")
-    return InputError(scn.source, "network.routes", scn.network.routes, f"SUMO cannot route it {exc}")
+    return InputError(scn.source, "network.routes", routes[0] if len(routes) == 1 else list(routes),
+                      f"SUMO cannot route it {exc}")
 
 
 def _signals_off(scn: Scenario, controller: Controller) -> bool:

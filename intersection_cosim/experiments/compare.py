@@ -136,7 +136,7 @@ def demand_veh_h(spec: SweepSpec) -> float:
     duration = dict(spec.overrides).get("duration", scn.scenario.duration)
     vehicles = sum(f.rate / 3600.0 * max(0.0, min(f.end, duration) - max(f.begin, 0.0)) for f in scn.flows)
     vehicles += len(scn.vehicles)
-    if scn.network.routes is not None:  # a route file's vehicles due in the window
+    if scn.network.routes:  # the route files' vehicles due in the window
         vehicles += file_counts(dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, duration=duration)))[
             "in_window"]
     return vehicles / duration * 3600.0

@@ -172,18 +172,19 @@ def _flow_entry(fv: dict) -> RouteEntry:
     return fv["depart"], fv["id"], attrs, " ".join(fv["route"])
 
 
-def route_files(scn: Scenario, user_routes: str | None = None) -> list[str]:
+def route_files(scn: Scenario, user_routes: tuple[str, ...] | None = None) -> list[str]:
     """The route files SUMO loads for a run of ``scn``: the run's own (ROUTE_FILE, relative to the
-    run folder), then the user's ``[network] routes`` file (absolute; ``user_routes`` instead if
-    given: its windowed copy), if any. When a [[vehicle]] or [[flow]] names a vType of the user's
-    file, that file comes first: SUMO must read the vType before the first vehicle of it."""
-    if scn.network.routes is None:
+    run folder), then the user's ``[network] routes`` files in their order (absolute;
+    ``user_routes`` instead if given: their windowed copies), if any. When a [[vehicle]] or
+    [[flow]] names a vType of the user's files, those come first: SUMO must read the vType before
+    the first vehicle of it."""
+    if not scn.network.routes:
         return [ROUTE_FILE]
-    theirs_file = user_routes or scn.network.routes
+    theirs_files = list(user_routes or scn.network.routes)
     theirs = {vt.id for vt in scn.vtypes if vt.from_routes}
     if any(spec.vtype in theirs for spec in (*scn.vehicles, *scn.flows)):
-        return [theirs_file, ROUTE_FILE]
-    return [ROUTE_FILE, theirs_file]
+        return [*theirs_files, ROUTE_FILE]
+    return [ROUTE_FILE, *theirs_files]
 
 
 def run_output_options(folder: Path, ssm: bool = True, window: float | None = None) -> list[str]:
@@ -206,7 +207,7 @@ def run_output_options(folder: Path, ssm: bool = True, window: float | None = No
     return [*outputs, *log, *measures]
 
 
-def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | None = None,
+def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: tuple[str, ...] | None = None,
                   additional: tuple[str, ...] = ()) -> None:
     """A config with every option of the run, its SUMO outputs going to ``replay/`` beside it.
 
@@ -215,8 +216,8 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | N
     game controller (or any other controller of this package), so the vehicles' motion differs
     from the run's trajectories. Its tripinfo, SSM and collision outputs go to ``replay/`` (made
     here, with a README), never over the run's own files. To watch the controller itself, use
-    ``intersection-cosim run SCENARIO --gui``. ``user_routes`` replaces the user's route file
-    (its windowed copy); ``additional`` are the run's own additional files, after the user's.
+    ``intersection-cosim run SCENARIO --gui``. ``user_routes`` replace the user's route files
+    (their windowed copies); ``additional`` are the run's own additional files, after the user's.
     """
     replay = Path(path).parent / REPLAY_DIR
     replay.mkdir(exist_ok=True)
@@ -226,7 +227,7 @@ def write_sumocfg(path: Path, net_file: str, scn: Scenario, user_routes: str | N
     root = ET.Element("configuration")
     sections = {
         "input": {"net-file": net_file, "route-files": ",".join(route_files(scn, user_routes)),
-                  **({"additional-files": ",".join(adds)} if adds else {})},
+                  **({"additional-files": ",".join(adds)} if adds else {}), **dict(scn.network.sumocfg_loading)},
         "time": {"begin": f"{s.begin or 0.0:g}", "end": f"{(s.begin or 0.0) + s.duration + s.drain:g}",
                  "step-length": f"{s.step_length:g}"},
         "processing": {"collision.check-junctions": "true", "collision.action": "warn",

@@ -4,6 +4,7 @@ the run drains; and the counts of the file's demand for the run's summary."""
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -11,9 +12,14 @@ import sumolib
 
 from intersection_cosim.network.xml_files import xml_root
 from intersection_cosim.scenario.model import Scenario
-from intersection_cosim.scenario.sumocfg import DEMAND_TAGS, VEHICLE_TAGS, in_window, route_departs
+from intersection_cosim.scenario.sumocfg import DEMAND_TAGS, VEHICLE_TAGS, in_window, route_demand
 
-WINDOW_FILE = "demand.rou.xml"  # the windowed copy of the user's route file, in the run folder
+WINDOW_FILE = "demand.rou.xml"  # the windowed copy of the user's (first) route file, in the run folder
+
+
+def window_name(n: int) -> str:
+    """The run folder's windowed copy of the user's ``n``-th route file (from 0)."""
+    return WINDOW_FILE if n == 0 else WINDOW_FILE.replace(".rou.xml", f"-{n + 1}.rou.xml")
 
 
 def _time(text: str | None) -> float | None:
@@ -41,28 +47,30 @@ def _kept(el: ET.Element, begin: float, end: float) -> bool:
     return depart is None or in_window(depart, begin, end)
 
 
-def write_window(scn: Scenario, folder: Path) -> str | None:
-    """Write the windowed copy of ``scn``'s route file into ``folder``; return its name (relative to
-    ``folder``), or None when the run reads the user's file itself (no route file, or
-    ``keep_all_demand``)."""
+def write_window(scn: Scenario, folder: Path) -> tuple[str, ...] | None:
+    """Write the windowed copy of each of ``scn``'s route files into ``folder`` (one per file, so
+    each stays sorted by departure as SUMO reads it); return their names (relative to ``folder``),
+    or None when the run reads the user's files themselves (none, or ``keep_all_demand``)."""
     s, routes = scn.scenario, scn.network.routes
-    if routes is None or s.keep_all_demand:
+    if not routes or s.keep_all_demand:
         return None
-    root = xml_root(routes)
     begin, end = s.begin, s.begin + s.duration  # [s]
-    for el in [el for el in root if el.tag in DEMAND_TAGS and not _kept(el, begin, end)]:
-        root.remove(el)
-    ET.ElementTree(root).write(folder / WINDOW_FILE, encoding="UTF-8", xml_declaration=True)
-    return WINDOW_FILE
+    names = []
+    for n, path in enumerate(routes):
+        root = xml_root(path)
+        for el in [el for el in root if el.tag in DEMAND_TAGS and not _kept(el, begin, end)]:
+            root.remove(el)
+        ET.ElementTree(root).write(folder / window_name(n), encoding="UTF-8", xml_declaration=True)
+        names.append(window_name(n))
+    return tuple(names)
 
 
 def file_counts(scn: Scenario) -> dict:
-    """The vehicles of ``scn``'s route file: ``in_files`` (every vehicle, trip or flow in it; persons
-    are not counted) and ``in_window`` (those departing within [begin, begin + duration) [s]);
-    zeros without one."""
-    s, routes = scn.scenario, scn.network.routes
-    if routes is None:
-        return {"in_files": 0, "in_window": 0}
-    departs = route_departs(routes, VEHICLE_TAGS)
-    return {"in_files": len(departs),
-            "in_window": sum(in_window(t, s.begin, s.begin + s.duration) for t in departs)}
+    """The vehicles of ``scn``'s route files: ``in_files`` (every vehicle and trip in them, and
+    every vehicle of their flows; persons are not counted) and ``in_window`` (those departing
+    within [begin, begin + duration) [s]); a random flow counts its expected number; zeros
+    without any."""
+    s = scn.scenario
+    demand = [d for path in scn.network.routes for d in route_demand(path, VEHICLE_TAGS)]
+    return {"in_files": round(sum(d.count(-math.inf, math.inf) for d in demand)),
+            "in_window": round(sum(d.count(s.begin, s.begin + s.duration) for d in demand))}

@@ -102,8 +102,9 @@ def _movements(scn: Scenario, controller: Controller) -> tuple[Path, Movements]:
     movements = load_movements(net, scn.network.junctions, scn.network.control_range)
     if scn.network.signals == "on" and controller.controls_vehicles:
         _refuse_kept_lights(scn, net)
-    if scn.network.routes and not controller.yields_to_pedestrians and route_file_persons(scn.network.routes):
-        raise InputError(scn.source, "network.routes", scn.network.routes,
+    with_people = [path for path in scn.network.routes if route_file_persons(path)]
+    if with_people and not controller.yields_to_pedestrians:
+        raise InputError(scn.source, "network.routes", with_people[0],
                          f"has pedestrians (person / personFlow): {scn.controller.kind} does not see them and "
                          "would drive through their crossings; leave them out, or run nash, stackelberg or a "
                          "sumo-* controller")

@@ -221,11 +221,11 @@ def scenario_from_dict(data: dict[str, Any], src: str = "<scenario>", base: Path
     human = from_table(HumanDriverSettings, data.get("human"), src, "human")
     network = network_settings(src, data.get("network"), Path(src).parent if base is None else Path(base))
     scen = _clock(src, scen, data.get("scenario") or {}, network)
-    route_types = route_file_vtypes(network.routes) if network.routes is not None else ()
+    route_types = tuple(vt for path in network.routes for vt in route_file_vtypes(path))
     vtypes = vtypes_of(src, data.get("vtype"), route_types)
     vehicles, flows = _demand(src, data, scen, model, network, vtypes)
     v2x = _v2x(src, data.get("v2x"), vehicles, flows, network)
-    if network.routes is not None and not scen.keep_all_demand:
+    if network.routes and not scen.keep_all_demand:
         check_window(src, network.routes, scen.begin, scen.duration)
     stress_settings(src, data.get("stress"))  # read only by ``stress``; checked here so a typo is an error
     return Scenario(source=src, scenario=scen, controller=ctrl, model=model, controller_settings=settings,
@@ -266,8 +266,8 @@ def _v2x(src: str, table: Any, vehicles: list[VehicleSpec], flows: list[FlowSpec
         attacks.append(from_table(AttackSettings, entry, src, f"v2x.attack[{i}]"))
     settings = from_table(V2XSettings, table, src, "v2x")
     ids = {v.id for v in vehicles}
-    if network.routes is not None:
-        ids |= route_file_ids(network.routes)[1]
+    for path in network.routes:
+        ids |= route_file_ids(path)[1]
     flow_ids = {f.id for f in flows}
     for i, attack in enumerate(attacks):
         head, _, k = attack.vehicle.rpartition(".")
@@ -317,8 +317,9 @@ def _demand(src: str, data: dict[str, Any], scen: ScenarioSettings, model: Model
         if f.id in fids or f.id in seen:
             raise InputError(src, "flow.id", f.id, "duplicate id")
         fids.add(f.id)
-    if network.routes is not None:
-        _check_route_file_ids(src, network.routes, seen | fids)
+    if network.routes:
+        for path in network.routes:
+            _check_route_file_ids(src, path, seen | fids)
     elif not vehicles and not flows:
         raise InputError(src, "vehicle", [], "a scenario needs at least one [[vehicle]] or [[flow]]")
     return vehicles, flows

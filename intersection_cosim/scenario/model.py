@@ -162,11 +162,12 @@ class NetworkSettings:
     junctions: tuple[str, ...] = (PAPER_JUNCTION,)  # [-] ids of the net's junctions the controller manages
     signals: str = "off"  # [-] traffic-light junctions among them: "off" = run unsignalized, "on" = keep the lights
     control_range: float = 100.0  # [m] upstream of a junction where the controller takes a vehicle over
-    routes: str | None = None  # [-] absolute path of the user's own SUMO route file (None: none)
+    routes: tuple[str, ...] = ()  # [-] absolute paths of the user's own SUMO route files, in SUMO's order
     sumocfg: str | None = None  # [-] absolute path of the user's .sumocfg the other fields came from (None: none)
     additional: tuple[str, ...] = ()  # [-] absolute paths of SUMO additional files (detectors, programmes)
     sumocfg_begin: float | None = None  # [s] the sumocfg's begin (None: no sumocfg, or it gives none)
     sumocfg_end: float | None = None  # [s] the sumocfg's end (None: no sumocfg, or it gives none)
+    sumocfg_loading: tuple[tuple[str, str], ...] = ()  # [-] the sumocfg's XML-validation options, passed on
 
     @property
     def generated(self) -> bool:

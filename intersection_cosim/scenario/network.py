@@ -150,35 +150,47 @@ def route_file_persons(path: str) -> int:
     return sum(el.tag in ("person", "personFlow") for el in xml_root(path))
 
 
-def _routes(src: str, value: Any, path: str, net_file: str) -> str:
+def _routes(src: str, files: tuple[tuple[Any, str], ...], net_file: str, additional: tuple[str, ...] = (),
+            loading: tuple[tuple[str, str], ...] = ()) -> tuple[str, ...]:
+    """The route files ``files`` ((as given, absolute path) each), checked one by one and then
+    loaded by SUMO together (a later file may use a vType of an earlier one), with the
+    ``additional`` files (they may define the vTypes) and the config's ``loading`` options."""
     field = "network.routes"
-    if not os.path.isfile(path):
-        raise InputError(src, field, value, f"no such file ({path})")
-    try:
-        root = xml_root(path)
-    except (ET.ParseError, OSError) as exc:
-        raise InputError(src, field, value, f"is not SUMO routes XML ({exc})") from None
-    if root.tag != "routes":
-        raise InputError(src, field, value, f"is not SUMO routes XML (its root is <{root.tag}>, not <routes>)")
-    refusal = sumo_refusal(net_file, path)
+    for value, path in files:
+        if not os.path.isfile(path):
+            raise InputError(src, field, value, f"no such file ({path})")
+        try:
+            root = xml_root(path)
+        except (ET.ParseError, OSError) as exc:
+            raise InputError(src, field, value, f"is not SUMO routes XML ({exc})") from None
+        if root.tag != "routes":
+            raise InputError(src, field, value, f"is not SUMO routes XML (its root is <{root.tag}>, not <routes>)")
+    paths = tuple(path for _, path in files)
+    refusal = sumo_refusal(net_file, paths, additional, loading)
     if refusal is not None:
+        value = files[0][0] if len(files) == 1 else [v for v, _ in files]
         raise InputError(src, field, value, f"SUMO refuses it: {refusal}")
-    return path
+    return paths
 
 
-def sumo_refusal(net_file: str, routes: str) -> str | None:
-    """SUMO's first "Error:" line loading ``routes`` on ``net_file`` for 1 s (None: it accepts
-    them); cached per version of the two files."""
-    return _sumo_refusal(net_file, routes, os.stat(net_file).st_mtime_ns, os.stat(routes).st_mtime_ns)
+def sumo_refusal(net_file: str, routes: tuple[str, ...], additional: tuple[str, ...] = (),
+                 loading: tuple[tuple[str, str], ...] = ()) -> str | None:
+    """SUMO's first "Error:" line loading the route files ``routes`` (with the ``additional``
+    files and the ``loading`` options (name, value)) on ``net_file`` for 1 s (None: it accepts
+    them); cached per version of the files."""
+    stamps = tuple(os.stat(f).st_mtime_ns for f in (net_file, *routes, *additional))
+    return _sumo_refusal(net_file, routes, additional, loading, stamps)
 
 
 @functools.lru_cache(maxsize=8)
-def _sumo_refusal(net_file: str, routes: str, net_mtime_ns: int, routes_mtime_ns: int) -> str | None:
-    """SUMO's first "Error:" line loading ``routes`` on ``net_file`` for 1 s (None: it accepts them).
-
-    Cached per file versions: a sweep loads one scenario many times.
-    """
-    args = [sumo_binary(), "--net-file", net_file, "--route-files", routes, "--begin", "0", "--end", "1",
+def _sumo_refusal(net_file: str, routes: tuple[str, ...], additional: tuple[str, ...],
+                  loading: tuple[tuple[str, str], ...], stamps: tuple[int, ...]) -> str | None:
+    """:func:`sumo_refusal`, cached per file versions (``stamps``): a sweep loads one scenario many
+    times."""
+    extra = [a for name, value in loading for a in (f"--{name}", value)]
+    if additional:
+        extra += ["--additional-files", ",".join(additional)]
+    args = [sumo_binary(), "--net-file", net_file, "--route-files", ",".join(routes), *extra, "--begin", "0", "--end", "1",
             "--no-step-log", "true", "--no-warnings", "true", "--duration-log.disable", "true"]
     try:
         proc = subprocess.run(args, capture_output=True, text=True, timeout=ROUTE_CHECK_TIMEOUT,
@@ -209,14 +221,16 @@ def network_settings(src: str, table: Any, base: Path) -> NetworkSettings:
     net = _net(src, net_value, net_file)
     if "junctions" not in table:
         raise InputError(src, "network.junctions", None, "is required with network.file (the ids to manage)")
-    routes_value, routes_path = _route_file(src, table, cfg, base)
-    routes = None if routes_path is None else _routes(src, routes_value, routes_path, net_file)
+    files = _route_files(src, table, cfg, base)
+    additional = _additional(src, table, cfg, base)
+    loading = () if cfg is None else cfg.loading
+    routes = _routes(src, files, net_file, additional, loading) if files else ()
     junctions = _all_junctions(src, net_file) if table["junctions"] == "all" else _junctions(src, table["junctions"], net)
     settings = NetworkSettings(file=net_file, junctions=junctions,
                                signals=_signals(src, table.get("signals", "off")),
                                control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes,
                                sumocfg=None if cfg is None else cfg.path,
-                               additional=_additional(src, table, cfg, base),
+                               additional=additional, sumocfg_loading=loading,
                                sumocfg_begin=None if cfg is None else cfg.begin,
                                sumocfg_end=None if cfg is None else cfg.end)
     _check_manageable(src, settings)
@@ -232,18 +246,16 @@ def _net_file(src: str, table: dict, cfg: SumoConfig | None, base: Path) -> tupl
     return cfg.net, cfg.net
 
 
-def _route_file(src: str, table: dict, cfg: SumoConfig | None, base: Path) -> tuple[Any, str | None]:
-    """(as given, absolute path or None) of the route file: ``routes`` if the table has it, else
-    the sumocfg's one route file (None: neither gives one)."""
-    if "routes" in table:
-        return table["routes"], resolve_path(src, "network.routes", table["routes"], base)
-    if cfg is None or not cfg.routes:
-        return None, None
-    if len(cfg.routes) > 1:
-        raise InputError(src, "network.sumocfg", cfg.path,
-                         f"lists {len(cfg.routes)} route files; a run reads one (merge them, or name one with "
-                         "network.routes)")
-    return cfg.routes[0], cfg.routes[0]
+def _route_files(src: str, table: dict, cfg: SumoConfig | None, base: Path) -> tuple[tuple[Any, str], ...]:
+    """(as given, absolute path) of each route file, in SUMO's order: ``routes`` (a path or a list
+    of paths) if the table has it, else the sumocfg's route files (none: neither gives one)."""
+    if "routes" not in table:
+        return () if cfg is None else tuple((path, path) for path in cfg.routes)
+    value = table["routes"]
+    items = value if isinstance(value, list) else [value]
+    if not items or not all(isinstance(v, str) and v for v in items):
+        raise InputError(src, "network.routes", value, "must be a file path or a non-empty list of file paths")
+    return tuple((v, resolve_path(src, "network.routes", v, base)) for v in items)
 
 
 def _additional(src: str, table: dict, cfg: SumoConfig | None, base: Path) -> tuple[str, ...]:

@@ -9,6 +9,7 @@ refused at load time. Nothing is written anywhere.
 from __future__ import annotations
 
 import functools
+import math
 import os
 from dataclasses import dataclass
 from typing import Any
@@ -33,12 +34,19 @@ class SumoConfig:
     additional: tuple[str, ...] = ()  # [-] its additional-files, in order
     begin: float | None = None  # [s] its begin (None: not given)
     end: float | None = None  # [s] its end (None: not given)
+    loading: tuple[tuple[str, str], ...] = ()  # [-] its options of LOADING_OPTIONS, as (name, value)
 
 
 def _files(value: str, folder: str) -> tuple[str, ...]:
     """A SUMO file list option (comma or space separated), each made absolute against ``folder``."""
     names = [n for n in value.replace(",", " ").split() if n]
     return tuple(os.path.normpath(os.path.join(folder, n)) for n in names)
+
+
+CONFIG_ROOTS = ("configuration", "sumoConfiguration")  # hand-written configs, and those SUMO saves itself
+# how SUMO reads the inputs: a run loads them as the user's config does (real scenarios' files
+# may carry attributes newer schemas no longer declare, and their configs switch validation off)
+LOADING_OPTIONS = ("xml-validation", "xml-validation.net", "xml-validation.routes")
 
 
 def read_sumocfg(src: str, value: Any, path: str) -> SumoConfig:
@@ -52,7 +60,7 @@ def read_sumocfg(src: str, value: Any, path: str) -> SumoConfig:
         options = {opt.name: opt.value for opt in readOptions(path)}
     except Exception as exc:  # expat / sax parse errors
         raise InputError(src, field, value, f"is not a SUMO configuration ({type(exc).__name__}: {exc})") from None
-    if root.tag != "configuration":
+    if root.tag not in CONFIG_ROOTS:
         raise InputError(src, field, value, f"is not a SUMO configuration (its root is <{root.tag}>)")
     folder = os.path.dirname(os.path.abspath(path))
     times = {}
@@ -66,7 +74,8 @@ def read_sumocfg(src: str, value: Any, path: str) -> SumoConfig:
     return SumoConfig(path=path, net=nets[0] if nets else None,
                       routes=_files(options.get("route-files", ""), folder),
                       additional=_files(options.get("additional-files", ""), folder),
-                      begin=times.get("begin"), end=times.get("end"))
+                      begin=times.get("begin"), end=times.get("end"),
+                      loading=tuple((k, options[k]) for k in LOADING_OPTIONS if k in options))
 
 
 def route_departs(path: str, tags: tuple[str, ...] = DEMAND_TAGS) -> tuple[float, ...]:
@@ -89,20 +98,106 @@ def _route_departs(path: str, mtime_ns: int, size: int, tags: tuple[str, ...]) -
     return tuple(sorted(out))
 
 
+FLOW_END = 86400.0  # [s] a flow's end where it gives none (SUMO's default: a day after 0)
+
+
+@dataclass(frozen=True)
+class Departures:
+    """The departures of one top-level demand element of a route file: one at ``begin`` [s] (a
+    vehicle, trip or person), or a flow's over [begin, end) [s]: every ``period`` [s] from its
+    begin (its period, per-hour rate, or number spread over the interval), or at random at
+    ``rate`` [1/s] (a probability per second or a Poisson period: an expected count)."""
+
+    tag: str
+    begin: float  # [s]
+    end: float | None = None  # [s] a flow's end (None: a single departure)
+    period: float | None = None  # [s] a regular flow's headway
+    rate: float = 0.0  # [1/s] a random flow's
+
+    def count(self, a: float, b: float) -> float:
+        """[-] how many depart within [a, b) [s] (expected, for a random flow)."""
+        if self.end is None:
+            return 1.0 if in_window(self.begin, a, b) else 0.0
+        lo, hi = max(a, self.begin), min(b, self.end)  # [s]
+        if hi <= lo:
+            return 0.0
+        if self.period is None:
+            return (hi - lo) * self.rate
+        first = max(0, math.ceil((lo - self.begin) / self.period - 1e-9))  # [-] the first departure's index
+        last = math.ceil((hi - self.begin) / self.period - 1e-9)  # [-] one past the last
+        return float(max(0, last - first))
+
+
+def _number(text: str | None) -> float | None:
+    """A SUMO number or time attribute, its argument for ``exp(x)`` (a Poisson period's rate)."""
+    if text is None:
+        return None
+    text = text.strip()
+    try:
+        return float(text[4:-1]) if text.startswith("exp(") else float(sumolib.miscutils.parseTime(text))
+    except (TypeError, ValueError):
+        return None
+
+
+def _flow(el) -> Departures | None:
+    """A flow element's departures (None: no numeric begin)."""
+    begin = _number(el.get("begin", "0"))
+    if begin is None:
+        return None
+    end, number = _number(el.get("end")), _number(el.get("number"))
+    text = el.get("period") or ""
+    per_hour = _number(el.get("vehsPerHour") or el.get("personsPerHour") or el.get("perHour"))
+    if text.strip().startswith("exp("):
+        return Departures(el.tag, begin, end if end is not None else FLOW_END, None, _number(text) or 0.0)
+    if _number(el.get("probability")) is not None:
+        return Departures(el.tag, begin, end if end is not None else FLOW_END, None, _number(el.get("probability")))
+    period = _number(text) or (3600.0 / per_hour if per_hour else None)  # [s]
+    if period is None:  # a number spread over the interval
+        end = end if end is not None else FLOW_END
+        period = (end - begin) / number if number else math.inf
+    elif number is not None:
+        end = min(end if end is not None else math.inf, begin + number * period)
+    return Departures(el.tag, begin, end if end is not None else FLOW_END, period)
+
+
+def route_demand(path: str, tags: tuple[str, ...] = DEMAND_TAGS) -> tuple[Departures, ...]:
+    """The departures of each top-level demand element of a route file whose tag is among
+    ``tags``; elements without a numeric depart ("triggered") are left out."""
+    st = os.stat(path)
+    return _route_demand(path, st.st_mtime_ns, st.st_size, tags)
+
+
+@functools.lru_cache(maxsize=16)
+def _route_demand(path: str, mtime_ns: int, size: int, tags: tuple[str, ...]) -> tuple[Departures, ...]:
+    out = []
+    for el in xml_root(path):
+        if el.tag not in tags:
+            continue
+        if el.tag.endswith("Flow") or el.tag == "flow":
+            flow = _flow(el)
+            if flow is not None:
+                out.append(flow)
+        elif _number(el.get("depart")) is not None:
+            out.append(Departures(el.tag, _number(el.get("depart"))))
+    return tuple(out)
+
+
 def in_window(depart: float, begin: float, end: float) -> bool:
     """Whether ``depart`` [s] lies in the demand window [``begin``, ``end``) [s]."""
     return begin - 1e-9 <= depart < end - 1e-9
 
 
-def check_window(src: str, routes: str, begin: float, duration: float) -> int:
-    """How many of the route file's vehicles depart in [begin, begin + duration) [s]; an
-    InputError naming the file, the window and its first depart time if it has demand and none
-    of it departs in the window (a file of vTypes only is no demand)."""
-    departs = route_departs(routes)
-    n = sum(in_window(t, begin, begin + duration) for t in departs)
+def check_window(src: str, routes: tuple[str, ...], begin: float, duration: float) -> int:
+    """How many of the route files' vehicles and people depart in [begin, begin + duration) [s]
+    (a flow by its interval); an InputError naming the files, the window and their first depart
+    time if they have demand and none of it departs in the window (files of vTypes only are no
+    demand)."""
+    departs = sorted(t for path in routes for t in route_departs(path))
+    n = round(sum(d.count(begin, begin + duration) for path in routes for d in route_demand(path)))
     if n == 0 and departs:
+        names = ", ".join(routes)
         raise InputError(src, "scenario.begin", begin,
-                         f"no vehicle of {routes} departs in the window [{begin:g}, {begin + duration:g}) s "
+                         f"no vehicle of {names} departs in the window [{begin:g}, {begin + duration:g}) s "
                          f"(scenario.begin + duration); its first vehicle departs at {departs[0]:g} s")
     return n
 

@@ -87,4 +87,4 @@ def test_pedestrian_rate_writes_people_over_every_crossing_and_keeps_the_scenari
                                settings=StressSettings()), scn, {"pedestrian_rate": 300.0}, 60.0, path)
     assert data["network"]["routes"] == str(path.resolve()) and path.is_file()
     again = scenario_from_dict(tomllib.loads(dumps(data)), str(tmp_path / "failure.toml"))
-    assert again.network.routes == str(path.resolve())
+    assert again.network.routes == (str(path.resolve()),)

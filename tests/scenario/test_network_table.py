@@ -72,7 +72,7 @@ def _write(folder: Path, text: str, name: str = "scenario.toml") -> Path:
 def test_cross_net_every_form(tmp_path):
     scn = load_scenario(_write(tmp_path, CROSS_SCENARIO))
     assert scn.network == NetworkSettings(file=str(CROSS.resolve()), junctions=("0",), signals="off",
-                                          control_range=80.0, routes=None)
+                                          control_range=80.0, routes=())
     by_edges, by_route = scn.flows
     assert by_edges.route == ("1fi", "1si", "2o")  # SUMO's router through junction m1 and 0
     assert (by_edges.id, by_edges.rate, by_edges.depart_lane, by_edges.depart_speed, by_edges.depart_pos) == (
@@ -139,7 +139,7 @@ def test_other_variables_and_relative_paths(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # relative to the scenario file, not to the working folder
     scn = load_scenario(_write(sub, text))
     assert scn.network.file == str((nets / "cross.net.xml").resolve())
-    assert scn.network.routes == str((nets / "bg.rou.xml").resolve())
+    assert scn.network.routes == (str((nets / "bg.rou.xml").resolve()),)
     assert to_dict(scn.network)["file"] == str((nets / "cross.net.xml").resolve())
 
 

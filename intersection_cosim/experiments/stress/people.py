@@ -3,7 +3,8 @@
 With ``pedestrian_rate`` drawn (persons/h per kerb-to-kerb crossing, network/kerb_walks.py), every
 kerb-to-kerb crossing of a managed junction gets two ``personFlow`` elements, one each way at half
 the rate, over the demand window. The run's routes file is the scenario's own (its vehicles and
-people kept) with these flows first; it is written into the stress folder as
+people kept) with these flows first (a scenario with several route files keeps them and gets the
+flows in a file of their own after them); it is written into the stress folder as
 ``people/<run id>.rou.xml`` and named by the run's scenario file as ``[network] routes``, so the
 run's failure file replays it while the stress folder exists. The axis is drawn only where a
 managed junction has crossings and the controller yields to pedestrians (the others refuse a
@@ -44,7 +45,8 @@ def routes_text(scn: Scenario, rate: float, duration: float) -> str | None:
     found = walks(scn)
     if rate <= 0 or not found:
         return None
-    root = ET.parse(scn.network.routes).getroot() if scn.network.routes else ET.Element("routes")
+    own = scn.network.routes
+    root = ET.parse(own[0]).getroot() if len(own) == 1 else ET.Element("routes")
     root = copy.deepcopy(root)
     for k, walk in enumerate(found):
         for n, (a, pa, b, pb) in enumerate(((walk.start, walk.depart_pos, walk.end, walk.arrival_pos),
@@ -65,4 +67,6 @@ def with_people(data: dict, scn: Scenario, draw: dict[str, float], duration: flo
         return data
     if not path.is_file() or path.read_text() != text:
         write_atomic(path, text)
-    return {**data, "network": {**data.get("network", {}), "routes": str(path.resolve())}}
+    own = scn.network.routes
+    routes = str(path.resolve()) if len(own) <= 1 else [*own, str(path.resolve())]
+    return {**data, "network": {**data.get("network", {}), "routes": routes}}
