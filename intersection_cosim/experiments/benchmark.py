@@ -120,7 +120,7 @@ BENCHMARK_COLUMNS = {"time_loss_mean": "average delay [s]", "travel_time_mean": 
 def write_benchmark(out: Path, table: pd.DataFrame, window: str) -> Path:
     """benchmark.md: RESCO's average delay, scenario by controller, then every measure per run."""
     delay = table.pivot(index="scenario", columns="controller", values="time_loss_mean")
-    figure = grouped_bars(delay, "average delay [s] (tripinfo timeLoss of the arrived trips)", out / BENCHMARK_FIGURE)
+    figure = grouped_bars(delay, "average delay [s]\n(tripinfo timeLoss, arrived trips)", out / BENCHMARK_FIGURE)
     lines = [f"# RESCO benchmark (window: {window})", "",
              "Average delay: RESCO's measure, SUMO's tripinfo timeLoss averaged over the arrived trips "
              "(over the seeds). Vehicles never inserted or not arrived are counted beside it: a jammed "

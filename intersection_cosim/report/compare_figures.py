@@ -121,7 +121,9 @@ def grouped_bars(values: pd.DataFrame, label: str, out_png: Path) -> Path:
     for k, col in enumerate(cols):
         x = np.arange(len(rows)) + (k - (len(cols) - 1) / 2) * width
         ax.bar(x, values[col].to_numpy(float), width, label=str(col), color=cmap(k % 10))
-    ax.set_xticks(np.arange(len(rows)), [str(r) for r in rows])
+    names = [str(r) for r in rows]
+    crowded = sum(len(n) for n in names) > 8 * len(names) or len(names) > 6  # long names run together
+    ax.set_xticks(np.arange(len(rows)), names, rotation=30 if crowded else 0, ha="right" if crowded else "center")
     ax.set_ylabel(label)
     ax.legend(fontsize=7, ncol=2)
     ax.grid(axis="y", alpha=0.3)

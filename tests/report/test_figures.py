@@ -249,3 +249,26 @@ def test_a_demand_run_gets_no_start_labels_that_would_pile_up():
     fig, ax = plt.subplots()
     run_figures.draw_trajectories(ax, traj[traj["vehicle"].isin([f"f.{i}" for i in range(12)])])
     assert len(ax.texts) == 12 and ax.get_legend() is not None
+
+
+def test_grouped_bars_turn_long_group_names_so_they_do_not_run_together(tmp_path, monkeypatch):
+    """Eight RESCO scenario names under the bars ran into each other ("ingolstadt1ingolstadt21");
+    long or many names are turned 30 degrees, a few short ones stay level."""
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from intersection_cosim.report import compare_figures
+
+    angles = {}
+
+    def keep_angles(fig, out):  # [deg] the tick labels' rotation, instead of writing the PNG
+        angles[out.name] = [t.get_rotation() for t in fig.axes[0].get_xticklabels()]
+        plt.close(fig)
+        return out
+
+    monkeypatch.setattr(compare_figures, "save_figure", keep_angles)
+    names = ["arterial4x4", "cologne1", "cologne3", "cologne8", "grid4x4", "ingolstadt1", "ingolstadt21", "ingolstadt7"]
+    values = pd.DataFrame({"nash": range(8), "max-pressure": range(8)}, index=names)
+    compare_figures.grouped_bars(values, "delay [s]", tmp_path / "long.png")
+    compare_figures.grouped_bars(values.iloc[:3].set_axis(["low", "mid", "high"]), "delay [s]", tmp_path / "short.png")
+    assert set(angles["long.png"]) == {30.0} and set(angles["short.png"]) == {0.0}
