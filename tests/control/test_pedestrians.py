@@ -11,8 +11,7 @@ import sumo
 
 from intersection_cosim.control.base import ControlContext, Walker
 from intersection_cosim.control.game.controller import GameController
-from intersection_cosim.control.safety.pedestrians import (EDGE_DEPTH, pedestrian_drive_on, pedestrian_holds,
-                                                            vehicle_window, walker_window)
+from intersection_cosim.control.safety.pedestrians import pedestrian_holds, vehicle_window, walker_window
 from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
 from intersection_cosim.models.settings import ModelSettings
@@ -95,9 +94,7 @@ def test_a_person_on_the_road_out_holds_the_vehicle_at_its_stop_line_not_in_the_
 
 
 def test_a_vehicle_does_not_enter_a_crossing_it_could_not_leave_while_people_walk_there(fokr):
-    """Its leader's rear is just past the crossing and would stay so were the leader to stop now
-    (braking at the vehicle's emergency braking, 4 m/s^2 here): it could have to stop on the
-    crossing, in the people's way."""
+    """Its leader stands just past the crossing: it would have to stop on it, in the people's way."""
     movements, zones = fokr
     path, (c_in, _) = movements.paths[PATH], zones[PATH]
     far = Walker("p", c_in.lane, c_in.span[0] - 12.0, +1, 1.2)  # no conflict by the windows alone
@@ -105,34 +102,9 @@ def test_a_vehicle_does_not_enter_a_crossing_it_could_not_leave_while_people_wal
     assert _holds(fokr, s, 5.0, [far]) == {}
     blocked = _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 0.0))  # rear 0.5 m past the crossing
     assert blocked["A"] == pytest.approx(-25.0 / (2 * (6.0 - ST.margin)))
-    moving = _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 1.0))  # it may stop 0.125 m on: in it
-    assert moving["A"] == blocked["A"]
-    assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 3.0)) == {}  # it stops 1.1 m on: room
+    assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 0.5, 3.0)) == {}  # the leader drives on
     assert _holds(fokr, s, 5.0, [far], lead=(c_in.zone_out + 5.0, 0.0)) == {}  # room behind the crossing
     assert _holds(fokr, s, 5.0, [], lead=(c_in.zone_out + 0.5, 0.0)) == {}  # nobody there
-
-
-def test_a_vehicle_deep_on_a_crossing_drives_on_when_a_person_may_walk_into_its_stretch(fokr):
-    """A plan that slows on the crossing leaves the body there as the person walks in (a SUMO
-    person steps out by its own gap model): deep in its zone the vehicle drives on instead."""
-    movements, zones = fokr
-    c_in = zones[PATH][0]
-    near = Walker("p", c_in.lane, c_in.span[0] - 2.0, +1, 1.2)  # 2 m before the stretch, walking to it
-    away = near._replace(position=c_in.span[1] + 3.0)  # past it, walking away
-
-    def drive_on(s, v, walkers, plan=None):
-        world = make_world(movements.paths, 10.0, [("A", PATH, s, v)])
-        world.walkers = tuple(walkers)
-        return pedestrian_drive_on(world, movements, zones, {}, {} if plan is None else {"A": plan}, ST, 0.1,
-                                   lambda k: 2.5)
-
-    deep = c_in.zone_in + EDGE_DEPTH + 1.0  # [m]
-    crawl = Plan.from_accelerations(deep, 1.0, np.full(20, -0.5), 0.1)  # stops on the crossing
-    assert drive_on(deep, 1.0, [near], crawl) == {"A"}
-    assert drive_on(deep, 1.0, [away], crawl) == set()
-    assert drive_on(deep, 1.0, [], crawl) == set()
-    assert drive_on(c_in.zone_in - 3.0, 1.0, [near], crawl) == set()  # short of it: the holds' job
-    assert drive_on(c_in.zone_out + 0.5, 1.0, [near]) == set()  # it has left the crossing
 
 
 def test_a_standing_vehicle_reckons_to_drive_off_not_to_creep_over_the_crossing(fokr):

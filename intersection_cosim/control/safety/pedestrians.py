@@ -10,10 +10,8 @@ the vehicle out of it (the ``pedestrians`` rule, rules/pedestrians.py, which sta
   ``pedestrian_speed_high`` if it is slower (a person may speed up), to its leaving it at its
   speed, at least ``pedestrian_speed_low`` (a standing person walks on at that speed); one that
   has passed the stretch, walking away, is clear.
-* A vehicle does not enter a crossing that people walk on or towards while its leader's rear,
-  were the leader to stop now (braking as hard as the vehicle's own emergencyDecel), would be less
-  than ``margin`` past it: a queue that stops would leave it on the crossing as the person walks
-  in.
+* A vehicle does not enter a crossing that people walk on or towards while its leader stands less
+  than ``margin`` past it (it would have to stop on the crossing).
 * The vehicle waits at its stop line if it has not reached it, else stops ``pedestrian_margin``
   before the crossing; it brakes from the last moment at which ``brake_from`` [m/s^2] still stops
   it there after one more period at full acceleration (braking at the first sight of a person far
@@ -126,29 +124,6 @@ def pedestrian_holds(world: World, movements: Movements, zones: Mapping[str, tup
     return out
 
 
-def pedestrian_drive_on(world: World, movements: Movements, zones: Mapping[str, tuple[CrossingZone, ...]],
-                        options: Mapping[str, str], plans: Mapping[str, Plan], settings: SafetySettings,
-                        speed_floor: float, accel_of) -> set[str]:
-    """The controlled vehicles deeper than ``EDGE_DEPTH`` in a crossing zone of their path whose
-    time over it, by their plans, a person may share (:func:`_conflict` with no gap): they drive
-    on, for a plan that slows there would leave the body on the crossing as the person walks in.
-    ``accel_of(k)`` [m/s^2]: vehicle k's strongest acceleration."""
-    if not world.walkers or not zones:
-        return set()
-    out = set()
-    for k, vid in enumerate(world.ids):
-        if world.role[k] == "outside" or world.is_human(k):
-            continue
-        pid, s = world.path_ids[k], float(world.s[k])
-        p = movements.siblings.get((pid, options.get(vid, movements.paths[pid].exit_lane)), pid)
-        for zone in zones.get(p, ()):
-            walkers = [w for w in world.walkers if w.crossing == zone.lane]
-            if (zone.zone_in + EDGE_DEPTH <= s < zone.zone_out
-                    and _conflict(world, k, zone, walkers, plans.get(vid), settings, speed_floor, accel_of(k), 0.0)):
-                out.add(vid)
-    return out
-
-
 def _zone_hold(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | None, lead, s_stop: float,
                settings: SafetySettings, speed_floor: float, limits: tuple[float, float, float], brake_from: float,
                period: float) -> float | None:
@@ -159,9 +134,8 @@ def _zone_hold(world: World, k: int, zone: CrossingZone, walkers, plan: Plan | N
     s = float(world.s[k])
     if s >= zone.zone_in:  # in the zone: it drives on, unless it can stop at the edge short of a person
         return _edge_stop(world, k, zone, walkers, plan, settings, speed_floor, limits, period)
-    coming = any(walker_window(w, zone.span, settings) is not None for w in walkers)
-    blocked = (lead is not None and coming
-               and lead[0] + lead[1] ** 2 / (-2.0 * limits[2]) < zone.zone_out + settings.margin)
+    blocked = (lead is not None and lead[0] < zone.zone_out + settings.margin
+               and lead[1] < settings.clear_speed and bool(walkers))
     conflict = _conflict(world, k, zone, walkers, plan, settings, speed_floor, limits[1])
     if not (blocked or conflict):
         return None

@@ -7,9 +7,7 @@ take) whose time on the vehicle's stretch comes within the gap of the vehicle's.
 
 Action: holds the vehicle at its stop line if it has not reached it, else ``pedestrian_margin``
 before the crossing (control/safety/pedestrians.py has the windows and the braking); a hold harder
-than the vehicle's own braking is an emergency stop, which the other rules then count on. One
-deeper in its zone than it may still stop, that a person may reach while it is there, drives on
-(at least ``clear_accel``), whatever its plan: slowing, it would stand on the crossing.
+than the vehicle's own braking is an emergency stop, which the other rules then count on.
 
 Setting: ``[controller.safety] yield_to_pedestrians``, ``pedestrian_time_gap``,
 ``pedestrian_clearance``, ``pedestrian_margin``, ``pedestrian_speed_low``,
@@ -21,7 +19,7 @@ Test: tests/control/test_pedestrians.py::test_a_vehicle_too_close_to_stop_in_its
 from __future__ import annotations
 
 from intersection_cosim.control.safety.context import StepContext
-from intersection_cosim.control.safety.pedestrians import pedestrian_drive_on, pedestrian_holds
+from intersection_cosim.control.safety.pedestrians import pedestrian_holds
 from intersection_cosim.control.safety.rules.base import SAFETY, Rule
 from intersection_cosim.control.safety.step import FilterStep
 
@@ -55,10 +53,6 @@ def run(ctx: StepContext, step: FilterStep) -> None:
                              j.model.tcp_speed_floor, lambda k: vehicle_limits(ctx, k), j.problem.comfort_brake,
                              j.period, leader_of)
     step.pedestrian_holds += len(holds)
-    for vid in pedestrian_drive_on(world, j.movements, j.crossing_zones, ctx.options, ctx.plans, ctx.settings,
-                                   j.model.tcp_speed_floor, lambda k: vehicle_limits(ctx, k)[1]):
-        if vid in ctx.accel and vid not in holds:
-            step.drive_out(vid, NAME)
     index = {vid: k for k, vid in enumerate(world.ids)}
     for vid, a in holds.items():
         if a < vehicle_limits(ctx, index[vid])[0]:  # an emergency stop: the other rules count on it
