@@ -1,9 +1,9 @@
 """A user's own SUMO config (``[network] sumocfg``) and the demand window of a route file.
 
 :func:`read_sumocfg` reads the net, route files, additional files, begin and end of a ``.sumocfg``
-with sumolib (paths relative to the config's folder, as SUMO resolves them); :func:`route_departs`
-lists the depart times of a route file's demand, so that a window in which nothing departs is
-refused at load time. Nothing is written anywhere.
+with sumolib (paths relative to the config's folder, as SUMO resolves them); :func:`route_demand`
+lists the departures of a route file's demand (a flow's by its interval), so that a window in
+which nothing departs is refused at load time and the run's counts are those of its vehicles. Nothing is written anywhere.
 """
 
 from __future__ import annotations
@@ -78,26 +78,6 @@ def read_sumocfg(src: str, value: Any, path: str) -> SumoConfig:
                       loading=tuple((k, options[k]) for k in LOADING_OPTIONS if k in options))
 
 
-def route_departs(path: str, tags: tuple[str, ...] = DEMAND_TAGS) -> tuple[float, ...]:
-    """[s] the depart time of each top-level demand element of a route file whose tag is among
-    ``tags`` (a flow's begin), sorted; elements without a numeric depart ("triggered") are left out."""
-    st = os.stat(path)
-    return _route_departs(path, st.st_mtime_ns, st.st_size, tags)
-
-
-@functools.lru_cache(maxsize=16)
-def _route_departs(path: str, mtime_ns: int, size: int, tags: tuple[str, ...]) -> tuple[float, ...]:
-    out = []
-    for el in xml_root(path):
-        if el.tag in tags:
-            text = el.get("begin", "0") if el.tag.endswith("Flow") or el.tag == "flow" else el.get("depart")
-            try:
-                out.append(float(sumolib.miscutils.parseTime(text)))
-            except (TypeError, ValueError):
-                continue
-    return tuple(sorted(out))
-
-
 FLOW_END = 86400.0  # [s] a flow's end where it gives none (SUMO's default: a day after 0)
 
 
@@ -147,10 +127,10 @@ def _flow(el) -> Departures | None:
     end, number = _number(el.get("end")), _number(el.get("number"))
     text = el.get("period") or ""
     per_hour = _number(el.get("vehsPerHour") or el.get("personsPerHour") or el.get("perHour"))
-    if text.strip().startswith("exp("):
-        return Departures(el.tag, begin, end if end is not None else FLOW_END, None, _number(text) or 0.0)
-    if _number(el.get("probability")) is not None:
-        return Departures(el.tag, begin, end if end is not None else FLOW_END, None, _number(el.get("probability")))
+    probability = _number(el.get("probability"))  # [1/s]
+    if text.strip().startswith("exp(") or probability is not None:  # random: an expected count
+        rate = (_number(text) or 0.0) if probability is None else probability  # [1/s]
+        return Departures(el.tag, begin, end if end is not None else FLOW_END, None, rate)
     period = _number(text) or (3600.0 / per_hour if per_hour else None)  # [s]
     if period is None:  # a number spread over the interval
         end = end if end is not None else FLOW_END
@@ -192,12 +172,12 @@ def check_window(src: str, routes: tuple[str, ...], begin: float, duration: floa
     (a flow by its interval); an InputError naming the files, the window and their first depart
     time if they have demand and none of it departs in the window (files of vTypes only are no
     demand)."""
-    departs = sorted(t for path in routes for t in route_departs(path))
-    n = round(sum(d.count(begin, begin + duration) for path in routes for d in route_demand(path)))
-    if n == 0 and departs:
+    demand = [d for path in routes for d in route_demand(path)]
+    n = round(sum(d.count(begin, begin + duration) for d in demand))
+    if n == 0 and demand:
         names = ", ".join(routes)
         raise InputError(src, "scenario.begin", begin,
                          f"no vehicle of {names} departs in the window [{begin:g}, {begin + duration:g}) s "
-                         f"(scenario.begin + duration); its first vehicle departs at {departs[0]:g} s")
+                         f"(scenario.begin + duration); its first vehicle departs at {min(d.begin for d in demand):g} s")
     return n
 

@@ -11,9 +11,8 @@ a leader is shortened by it, so the rules' invariants hold for the true position
 
 from __future__ import annotations
 
-import math
-
 import functools
+import math
 from dataclasses import dataclass
 from typing import Mapping
 
