@@ -8,11 +8,9 @@ import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-import sumolib
-
 from intersection_cosim.network.xml_files import xml_root
 from intersection_cosim.scenario.model import Scenario
-from intersection_cosim.scenario.sumocfg import DEMAND_TAGS, VEHICLE_TAGS, in_window, route_demand
+from intersection_cosim.scenario.sumocfg import DEMAND_TAGS, VEHICLE_TAGS, in_window, route_demand, sumo_number
 
 WINDOW_FILE = "demand.rou.xml"  # the windowed copy of the user's (first) route file, in the run folder
 
@@ -22,19 +20,11 @@ def window_name(n: int) -> str:
     return WINDOW_FILE if n == 0 else WINDOW_FILE.replace(".rou.xml", f"-{n + 1}.rou.xml")
 
 
-def _time(text: str | None) -> float | None:
-    """[s] a SUMO time attribute, None if absent or not a number ("triggered")."""
-    try:
-        return float(sumolib.miscutils.parseTime(text))
-    except (TypeError, ValueError):
-        return None
-
-
 def _kept(el: ET.Element, begin: float, end: float) -> bool:
     """Whether demand element ``el`` departs within [begin, end) [s]; a flow is kept (and cut to
     the window) if its interval overlaps it; an element without a numeric time is kept."""
     if el.tag.endswith("Flow") or el.tag == "flow":
-        start, stop = _time(el.get("begin", "0")), _time(el.get("end"))
+        start, stop = sumo_number(el.get("begin", "0")), sumo_number(el.get("end"))
         if start is None:
             return True
         if start >= end or (stop is not None and stop <= begin):
@@ -43,7 +33,7 @@ def _kept(el: ET.Element, begin: float, end: float) -> bool:
             if el.get("number") is None:
                 el.set("end", f"{end:g}")
         return True
-    depart = _time(el.get("depart"))
+    depart = sumo_number(el.get("depart"))
     return depart is None or in_window(depart, begin, end)
 
 

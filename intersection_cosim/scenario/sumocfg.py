@@ -108,8 +108,9 @@ class Departures:
         return float(max(0, last - first))
 
 
-def _number(text: str | None) -> float | None:
-    """A SUMO number or time attribute, its argument for ``exp(x)`` (a Poisson period's rate)."""
+def sumo_number(text: str | None) -> float | None:
+    """A SUMO number or time attribute (None if absent or not a number, e.g. "triggered"), its
+    argument for ``exp(x)`` (a Poisson period's rate)."""
     if text is None:
         return None
     text = text.strip()
@@ -121,17 +122,17 @@ def _number(text: str | None) -> float | None:
 
 def _flow(el) -> Departures | None:
     """A flow element's departures (None: no numeric begin)."""
-    begin = _number(el.get("begin", "0"))
+    begin = sumo_number(el.get("begin", "0"))
     if begin is None:
         return None
-    end, number = _number(el.get("end")), _number(el.get("number"))
+    end, number = sumo_number(el.get("end")), sumo_number(el.get("number"))
     text = el.get("period") or ""
-    per_hour = _number(el.get("vehsPerHour") or el.get("personsPerHour") or el.get("perHour"))
-    probability = _number(el.get("probability"))  # [1/s]
+    per_hour = sumo_number(el.get("vehsPerHour") or el.get("personsPerHour") or el.get("perHour"))
+    probability = sumo_number(el.get("probability"))  # [1/s]
     if text.strip().startswith("exp(") or probability is not None:  # random: an expected count
-        rate = (_number(text) or 0.0) if probability is None else probability  # [1/s]
+        rate = (sumo_number(text) or 0.0) if probability is None else probability  # [1/s]
         return Departures(el.tag, begin, end if end is not None else FLOW_END, None, rate)
-    period = _number(text) or (3600.0 / per_hour if per_hour else None)  # [s]
+    period = sumo_number(text) or (3600.0 / per_hour if per_hour else None)  # [s]
     if period is None:  # a number spread over the interval
         end = end if end is not None else FLOW_END
         period = (end - begin) / number if number else math.inf
@@ -157,8 +158,8 @@ def _route_demand(path: str, mtime_ns: int, size: int, tags: tuple[str, ...]) ->
             flow = _flow(el)
             if flow is not None:
                 out.append(flow)
-        elif _number(el.get("depart")) is not None:
-            out.append(Departures(el.tag, _number(el.get("depart"))))
+        elif sumo_number(el.get("depart")) is not None:
+            out.append(Departures(el.tag, sumo_number(el.get("depart"))))
     return tuple(out)
 
 
