@@ -8,20 +8,27 @@ packaged files are used) or from ``--nets DIR`` holding ``<name>/<name>.sumocfg`
 is written as a scenario file into ``OUT/scenarios/``: its sumocfg, every manageable junction,
 signals off for the controllers that drive the vehicles (the signal baselines keep the net's
 lights), ``window`` "full" (the sumocfg's begin to end, one hour) or "600" (its first 600 s).
-Besides compare's table and figures it writes ``OUT/benchmark.md`` with RESCO's measure, the
-average delay (tripinfo timeLoss of the arrived trips), scenario by controller, and one figure.
+Besides compare's table and figures it writes ``OUT/benchmark.md`` with the average delay
+(tripinfo timeLoss of the arrived trips), scenario by controller, and one figure; then RESCO's own
+delay measure (results/resco_delay.py) beside RESCO's published results for its signal baselines
+(experiments/resco_published.py).
 """
 
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import pandas as pd
 
 from intersection_cosim.errors import InputError
 from intersection_cosim.experiments.compare import CompareOutcome, make_specs, run_compare
-from intersection_cosim.experiments.sweep import parse_controllers, parse_seeds
+from intersection_cosim.experiments.resco_published import RESCO_PUBLISHED, RESCO_SOURCE
+from intersection_cosim.experiments.sweep import parse_controllers, parse_seeds, sweep_jobs
+from intersection_cosim.results.layout import RUN_MARKER
+from intersection_cosim.results.resco_delay import resco_delay
+from intersection_cosim.results.sweep_folder import SweepSpec
 from intersection_cosim.report.compare_figures import grouped_bars
 from intersection_cosim.report.reporting import markdown_table
 
@@ -107,8 +114,40 @@ def run_benchmark(scenarios: str, controllers: str, seeds: str, window: str, out
     files = write_scenarios(names, resco_nets(nets), window, out / "scenarios")
     specs = make_specs(files, controllers, seeds)
     outcome = run_compare(specs, out, **executor)
-    write_benchmark(out, outcome.table, window)
+    write_benchmark(out, outcome.table, window, resco_delays(specs, out))
     return outcome
+
+
+def run_resco_delay(run: Path) -> float:
+    """[s] RESCO's delay of one finished run (results/resco_delay.py), its window's end from the
+    run's resolved settings."""
+    settings = json.loads((run / RUN_MARKER).read_text())["settings"]["scenario"]
+    end = float(settings["begin"]) + float(settings["duration"])  # [s]
+    return resco_delay(run / "tripinfo.xml", sorted(run.glob("demand*.rou.xml")), end)
+
+
+def resco_delays(specs: list[SweepSpec], out: Path) -> pd.DataFrame:
+    """RESCO's delay [s] by scenario (rows) and controller (columns), mean over the finished seeds."""
+    rows = [{"scenario": spec.scenario_name, "controller": job.controller,
+             "resco_delay": run_resco_delay(Path(job.run_dir))}
+            for spec in specs for job in sweep_jobs(spec, out / spec.scenario_name)
+            if (Path(job.run_dir) / RUN_MARKER).is_file()]
+    table = pd.DataFrame(rows, columns=["scenario", "controller", "resco_delay"])
+    return table.pivot_table(index="scenario", columns="controller", values="resco_delay", aggfunc="mean")
+
+
+def published_table(ours: pd.DataFrame) -> pd.DataFrame:
+    """Ours beside RESCO's published delays [s] (experiments/resco_published.py), per scenario, for
+    the signal baselines both ran."""
+    rows = []
+    for scenario in ours.index:
+        row = {"scenario": scenario}
+        for controller, (value, _) in RESCO_PUBLISHED.get(scenario, {}).items():
+            if controller in ours.columns:
+                row[f"{controller} (ours)"] = round(float(ours.loc[scenario, controller]), 1)
+                row[f"{controller} (RESCO)"] = value
+        rows.append(row)
+    return pd.DataFrame(rows).dropna(axis=1, how="all")
 
 
 BENCHMARK_COLUMNS = {"time_loss_mean": "average delay [s]", "travel_time_mean": "travel time [s]",
@@ -117,15 +156,24 @@ BENCHMARK_COLUMNS = {"time_loss_mean": "average delay [s]", "travel_time_mean": 
                      "not_inserted": "never inserted", "arrived": "arrived", "vehicles": "vehicles"}
 
 
-def write_benchmark(out: Path, table: pd.DataFrame, window: str) -> Path:
-    """benchmark.md: RESCO's average delay, scenario by controller, then every measure per run."""
+def write_benchmark(out: Path, table: pd.DataFrame, window: str, resco: pd.DataFrame) -> Path:
+    """benchmark.md: the average delay, scenario by controller; RESCO's delay beside RESCO's
+    published one; then every measure per run."""
     delay = table.pivot(index="scenario", columns="controller", values="time_loss_mean")
     figure = grouped_bars(delay, "average delay [s]\n(tripinfo timeLoss, arrived trips)", out / BENCHMARK_FIGURE)
     lines = [f"# RESCO benchmark (window: {window})", "",
-             "Average delay: RESCO's measure, SUMO's tripinfo timeLoss averaged over the arrived trips "
+             "Average delay: SUMO's tripinfo timeLoss averaged over the arrived trips "
              "(over the seeds). Vehicles never inserted or not arrived are counted beside it: a jammed "
              "controller cannot look better than it is.", "",
-             markdown_table(delay.reset_index()), "", "## Every measure", ""]
+             markdown_table(delay.reset_index()), "", "## RESCO's measure, beside RESCO's published results", "",
+             "RESCO's own delay (results/resco_delay.py: timeLoss plus insertion delay of the trips "
+             "arrived by the window's end, and the wait of the vehicles never inserted), scenario by "
+             "controller:", "", markdown_table(resco.reset_index()), ""]
+    if window == "full" and len(published := published_table(resco)) and len(published.columns) > 1:
+        lines += [f"Beside RESCO's published values ({RESCO_SOURCE}). Their runs stepped SUMO 1.9 at "
+                  "1 s; ours step at the scenario's step length, so equal values are not expected: "
+                  "the comparison says whether the orderings hold.", "", markdown_table(published), ""]
+    lines += ["## Every measure", ""]
     measures = table[["scenario", "controller", *BENCHMARK_COLUMNS]].rename(columns=BENCHMARK_COLUMNS)
     lines += [markdown_table(measures), "",
               f"![resco_delay]({Path(figure).relative_to(out).as_posix()})", ""]

@@ -23,19 +23,20 @@ def _float(text: str | None) -> float:
 
 
 def read_tripinfo(path: str | Path) -> pd.DataFrame:
-    """One row per vehicle: depart, arrival, duration, time_loss [s], arrival_lane (SUMO id),
+    """One row per vehicle: depart, depart_delay (its wait for insertion), arrival, duration,
+    time_loss [s], arrival_lane (SUMO id),
     and fuel_mg, co2_mg [mg] of its emissions device (NaN without one)."""
     rows = []
     for _, el in ET.iterparse(path):
         if el.tag == "tripinfo":
             em = el.find("emissions")
             rows.append({"vehicle": el.get("id"), "depart": _float(el.get("depart")),
-                         "arrival": _float(el.get("arrival")), "duration": _float(el.get("duration")),
+                         "depart_delay": _float(el.get("departDelay")), "arrival": _float(el.get("arrival")), "duration": _float(el.get("duration")),
                          "time_loss": _float(el.get("timeLoss")), "arrival_lane": el.get("arrivalLane"),
                          "vaporized": el.get("vaporized", ""),
                          "fuel_mg": _float(em.get("fuel_abs")) if em is not None else math.nan,
                          "co2_mg": _float(em.get("CO2_abs")) if em is not None else math.nan})
-    return pd.DataFrame(rows, columns=["vehicle", "depart", "arrival", "duration", "time_loss",
+    return pd.DataFrame(rows, columns=["vehicle", "depart", "depart_delay", "arrival", "duration", "time_loss",
                                        "arrival_lane", "vaporized", "fuel_mg", "co2_mg"])
 
 
