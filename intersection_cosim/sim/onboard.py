@@ -15,6 +15,7 @@ on them).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from types import ModuleType
 from typing import Collection, Mapping
@@ -25,6 +26,7 @@ from intersection_cosim.control.safety.crossing_sense import (Crossing, clearanc
                                                               foe_occupation, overlaps)
 from intersection_cosim.control.safety.onboard import OnboardSettings, guard_speed
 
+FEED = 100.0  # [m] how far upstream of a crossing a road user with the right of way is looked for
 Body = tuple[float, float, float, float, float]  # length [m], width [m], accel, decel, emergency decel [m/s^2]
 
 
@@ -40,25 +42,33 @@ class OnboardGuard:
     crossing_caps: int = 0  # [-] of them: held out of a crossing (crossing_sense.py)
     _lanes: dict = field(default_factory=dict)  # lane id -> (length [m], shape, internal foes, links)
     _crossings: dict = field(default_factory=dict)  # (lane, foe lane) -> Crossing | None
-    _on_lane: dict = field(default_factory=dict)  # this step's vehicles per foe lane
     _top: dict = field(default_factory=dict)  # vehicle -> its top speed [m/s]
+    _into: dict | None = None  # lane -> the lanes whose links lead onto it (the net read backwards)
+    _feed_of: dict = field(default_factory=dict)  # internal lane -> {lane: budget [m]}, see _feed
+    _feeders: dict = field(default_factory=dict)  # internal lane -> its foes' feeds merged (_foes_feed)
+    _untracked: dict = field(default_factory=dict)  # this step: lane -> (road user, position [m]) no controller commands or tracks
+    _untracked_ids: set = field(default_factory=set)  # this step: those road users
 
-    def begin_step(self) -> None:
-        """Forget the road users on the lanes read in the previous SUMO step."""
-        self._on_lane.clear()
+    def begin_step(self, states: Mapping[str, dict], tracked: Collection[str], commanded: Collection[str]) -> None:
+        """This SUMO step's road users that no controller commands (``commanded``) or tracks
+        (``tracked``: on a managed movement path, whose crossings the safety filter orders), by lane."""
+        self._untracked = {}
+        for vid, res in states.items():
+            if vid not in tracked and vid not in commanded:
+                self._untracked.setdefault(res[libsumo.VAR_LANE_ID], []).append((vid, res[libsumo.VAR_LANEPOSITION]))
+        self._untracked_ids = {vid for ids in self._untracked.values() for vid, _ in ids}
 
     def speed(self, vid: str, v: float, target: float, states: Mapping[str, dict], bodies: Mapping[str, Body],
-              min_gaps: Mapping[str, float], commanded: Collection[str] = (), tracked: Collection[str] = ()) -> float:
+              min_gaps: Mapping[str, float]) -> float:
         """[m/s] the speed vehicle ``vid`` at ``v`` [m/s], commanded to ``target`` [m/s], drives
         over the next SUMO step: ``target`` held out of a crossing a road user that no controller
-        commands (``commanded``) or tracks (``tracked``: on a managed movement path, whose
-        crossings the safety filter orders) is driving through or approaching with the right of way,
+        commands or tracks (:meth:`begin_step`) is driving through or approaching with the right of way,
         then capped behind the vehicle ahead (``states``: each vehicle's subscription results as
         last read, ``bodies`` per vehicle as read at departure, ``min_gaps`` [m] SUMO's minGap
         per vehicle)."""
         asked = target  # [m/s]
         if self.settings.crossing:
-            target = self._crossing_speed(vid, v, target, states, bodies, commanded, tracked)
+            target = self._crossing_speed(vid, v, target, states, bodies)
             self.crossing_caps += target < asked
         lead = self.api.vehicle.getLeader(vid, self.settings.sensor_range)
         if not lead or not lead[0]:
@@ -88,18 +98,18 @@ class OnboardGuard:
             self._crossings[key] = crossing(list(self._lane(lane)[1]), list(self._lane(foe)[1]))
         return self._crossings[key]
 
-    def junction_lanes(self, vid: str, reach: float) -> list[tuple[str, float]]:
-        """The lanes inside the next junction on ``vid``'s route, each with the distance [m] from
-        its front to the lane's start (negative: it is on it); none if the junction is farther
-        than ``reach`` [m]."""
-        veh = self.api.vehicle
-        lane, pos = veh.getLaneID(vid), veh.getLanePosition(vid)
+    def junction_lanes(self, vid: str, lane: str, pos: float, reach: float) -> list[tuple[str, float]]:
+        """The lanes inside the next junction on ``vid``'s route (it is at ``pos`` [m] on
+        ``lane``), each with the distance [m] from its front to the lane's start (negative: it is
+        on it); none if the junction is farther than ``reach`` [m]."""
         if lane.startswith(":"):
             chain = [(lane, -pos)]
         else:
-            links = veh.getNextLinks(vid)
             start = self._lane(lane)[0] - pos  # [m]
-            if not links or not links[0][4] or start > reach:
+            if start > reach:
+                return []
+            links = self.api.vehicle.getNextLinks(vid)
+            if not links or not links[0][4]:
                 return []
             chain = [(links[0][4], start)]
         while len(chain) < 8:
@@ -111,21 +121,23 @@ class OnboardGuard:
         return chain
 
     def _crossing_speed(self, vid: str, v: float, target: float, states: Mapping[str, dict],
-                        bodies: Mapping[str, Body], commanded: Collection[str], tracked: Collection[str]) -> float:
+                        bodies: Mapping[str, Body]) -> float:
         """``target`` held so that ``vid`` stops before a crossing that a road user no controller
         commands is driving through, or approaching with the right of way over ``vid``
         (control/safety/crossing_sense.py)."""
         own = bodies[vid]
         s = self.settings
         reach = v * v / (2.0 * own[3]) + v * s.crossing_buffer + s.crossing_lookahead  # [m]
-        chain = dict(self.junction_lanes(vid, reach))
-        if not chain:
-            return target
-        foes = [f for f in self.api.vehicle.getJunctionFoes(vid, reach) if f[0] not in commanded and f[0] not in tracked]
+        chain = dict(self.junction_lanes(vid, states[vid][libsumo.VAR_LANE_ID], states[vid][libsumo.VAR_LANEPOSITION],
+                                         reach))
+        near = self._untracked
+        if not chain or not any(self._lane(f)[0] - pos <= budget for lane in chain for f, budget in self._foes_feed(lane).items()
+                   for _, pos in near.get(f, ())):
+            return target  # nobody untracked inside or on the way in: the common case, no more queries
+        foes = [f for f in self.api.vehicle.getJunctionFoes(vid, reach) if f[0] in self._untracked_ids]
         waits = {f[0] for f in foes if f[8]}  # SUMO's right of way: they must let vid pass
         gaps = [self._inside(vid, v, lane, start, foe, other, states, bodies, other in waits)
-                for lane, start in chain.items() for foe in self._lane(lane)[2]
-                for other in self._vehicles_on(foe) if other != vid and other not in commanded and other not in tracked]
+                for lane, start in chain.items() for foe in self._lane(lane)[2] for other, _ in near.get(foe, ())]
         gaps += [self._approaching(vid, v, chain, f, states, bodies) for f in foes if f[7]]  # vid must let them pass
         for gap in gaps:
             if gap is None:
@@ -134,10 +146,36 @@ class OnboardGuard:
             target = min(target, capped)
         return target
 
-    def _vehicles_on(self, lane: str) -> tuple[str, ...]:
-        if lane not in self._on_lane:
-            self._on_lane[lane] = self.api.lane.getLastStepVehicleIDs(lane)
-        return self._on_lane[lane]
+    def _foes_feed(self, lane: str) -> dict[str, float]:
+        """The :meth:`_feed` of all internal foe lanes of ``lane`` in one (largest budget), read once."""
+        if lane not in self._feeders:
+            merged: dict[str, float] = {}
+            for foe in self._lane(lane)[2]:
+                for f, budget in self._feed(foe).items():
+                    merged[f] = max(budget, merged.get(f, -math.inf))
+            self._feeders[lane] = merged
+        return self._feeders[lane]
+
+    def _feed(self, lane: str) -> dict[str, float]:
+        """Where a road user is on its way into internal lane ``lane``: ``lane`` itself (budget
+        infinite) and every lane upstream within FEED [m], each with the budget [m] its road users'
+        distance to that lane's end must be within; read once."""
+        if lane not in self._feed_of:
+            if self._into is None:
+                self._into = {}
+                for one in self.api.lane.getIDList():
+                    for link in self._lane(one)[3]:
+                        self._into.setdefault(link[4] or link[0], []).append(one)
+            feed, todo = {lane: math.inf}, [(lane, 0.0)]
+            while todo:
+                at, dist = todo.pop()  # dist [m]: from at's start to lane's start
+                for prev in self._into.get(at, ()):
+                    if prev not in feed:
+                        feed[prev] = FEED - dist
+                        if dist + self._lane(prev)[0] < FEED:
+                            todo.append((prev, dist + self._lane(prev)[0]))
+            self._feed_of[lane] = feed
+        return self._feed_of[lane]
 
     def _body(self, vid: str, bodies: Mapping[str, Body]) -> tuple:
         """(length [m], width [m], accel [m/s^2], ...) of a road user, as read at departure."""

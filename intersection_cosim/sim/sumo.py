@@ -370,15 +370,14 @@ class SumoSimulation:
         emergencyDecel.
         """
         if self.guard is not None:
-            self.guard.begin_step()
+            self.guard.begin_step(self.states, self.current_path, self.commands)
         for vid, accel in self.commands.items():
             v = self.states[vid][libsumo.VAR_SPEED]
             body = self.bodies.get(vid)
             hardest = max(body[4], body[3]) if body is not None else math.inf  # [m/s^2] its emergency braking
             target = max(0.0, v + max(accel, -hardest) * self.step_length)  # [m/s]
             if self.guard is not None:
-                target = self.guard.speed(vid, v, target, self.states, self.bodies, self.min_gaps, self.commands,
-                                          self.current_path)
+                target = self.guard.speed(vid, v, target, self.states, self.bodies, self.min_gaps)
             self.api.vehicle.setSpeed(vid, target)
 
     def switch_signals_off(self) -> list[str]:
