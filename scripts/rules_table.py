@@ -27,7 +27,9 @@ rules in this order: **safety** rules keep what must never happen from happening
 rules resolve the locks the safety rules alone could cause. Under the filter, every commanded
 vehicle also has its onboard guard (`control/safety/onboard.py`): every SUMO step its speed is
 capped at Krauss' safe speed behind whatever vehicle SUMO finds ahead of it on its route, tracked
-by a controller or not. SUMO's lane changes of a vehicle a controller has taken over are gated too
+by a controller or not, and it is held out of a crossing inside the next junction that a road user
+no controller commands (a cyclist on a bicycle lane, a human the controller does not track) is
+driving through or approaching with the right of way (`control/safety/crossing_sense.py`). SUMO's lane changes of a vehicle a controller has taken over are gated too
 (`sim/lane_change_hold.py`): none while its body is in a managed junction or not yet clear of it,
 and none into a place beside it that another body takes (checked in the plane, so a body hanging
 back onto the target lane from the junction ahead counts, which SUMO's gap check along lanes

@@ -57,6 +57,7 @@ class Simulated(NamedTuple):
     onboard_caps: int = 0  # [-] SUMO steps x vehicles in which the onboard guard lowered a command
     loaded: int = 0  # [-] vehicles SUMO loaded from the route files during the run (inserted or not)
     emission_classes: dict | None = None  # vType -> SUMO emission class of its vehicles
+    onboard_crossing_caps: int = 0  # [-] of the onboard caps: held out of a crossing (control/safety/crossing_sense.py)
 
 
 def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simulated:
@@ -134,7 +135,7 @@ def _simulate(scn: Scenario, folder: Path, inputs: RunInputs, sim, scheduler, ob
     return Simulated(infos, records, final_paths, exit_lanes, channel.counts if channel is not None else None,
                      {vid: body[:2] for vid, body in sim.bodies.items()} if scn.vtypes else None,
                      tuple(sim.collision_log), sim.guard.caps if sim.guard is not None else 0, sim.loaded,
-                     dict(sim.emission_classes))
+                     dict(sim.emission_classes), sim.guard.crossing_caps if sim.guard is not None else 0)
 
 
 def _route_error(scn: Scenario, exc: RouteRefusal) -> Exception:

@@ -61,7 +61,8 @@ def _run_into(scn: Scenario, folder: Path, gui=None, compress: bool = False) -> 
     write_tables(folder, tables, simulated.records, diagnostics, compress)
     own = len(scn.vehicles) + len(inputs.flow_vehicles)
     summary = run_summary(scn, simulated.infos, tables, diagnostics, gui, simulated.onboard_caps,
-                          vehicle_counts(scn, own, simulated.loaded, tables.tripinfo))
+                          vehicle_counts(scn, own, simulated.loaded, tables.tripinfo),
+                          simulated.onboard_crossing_caps)
     ended = simulated.records.ended
     summary["ended_early"] = ended[0]._asdict() if ended else None
     summary["sumo_warnings"] = read_sumo_log(folder / SUMO_LOG_FILE)

@@ -151,7 +151,8 @@ def games_table(game_rows: list[tuple], clusters: tuple | None) -> pd.DataFrame:
 
 
 def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diagnostics, gui=None,
-                onboard_caps: int | None = None, counts: dict | None = None) -> dict:
+                onboard_caps: int | None = None, counts: dict | None = None,
+                onboard_crossing_caps: int | None = None) -> dict:
     """The run's summary.json: what ran, with which settings and versions, counts and metrics;
     ``counts``: :func:`vehicle_counts` (None: the vehicles of ``infos`` and tripinfo's)."""
     s = scn.scenario
@@ -171,7 +172,7 @@ def run_summary(scn: Scenario, infos: dict, tables: RunTables, diagnostics: Diag
                    "box_rule_clearances": diagnostics.box_rule_clearances,
                    "pedestrian_collisions": int(collisions["type"].isin(PEDESTRIAN_COLLISIONS).sum()),
                    "pedestrian_holds": diagnostics.pedestrian_holds,
-                   "onboard_caps": onboard_caps},
+                   "onboard_caps": onboard_caps, "onboard_crossing_caps": onboard_crossing_caps},
         # SUMO's records, distinct vehicles and pairs, split by whether a vehicle under a
         # controller is involved, and our own overlap check beside them (results/collision_counts.py)
         "collisions": collision_counts(tables.collision_log, tables.overlaps),

@@ -369,6 +369,8 @@ class SumoSimulation:
         therefore held to what the vehicle can do: no braking harder than its vType's
         emergencyDecel.
         """
+        if self.guard is not None:
+            self.guard.begin_step(self.states, self.current_path, self.commands)
         for vid, accel in self.commands.items():
             v = self.states[vid][libsumo.VAR_SPEED]
             body = self.bodies.get(vid)

@@ -361,3 +361,62 @@ def test_a_vehicle_changes_lanes_only_once_its_body_has_left_the_junction(tmp_pa
     assert on_link[0][0] == "AE_0" and {lane for lane, _ in on_link} == {"AE_0", "AE_1"}
     first = next(pos for lane, pos in on_link if lane == "AE_1")  # [m] its front when it changed
     assert first >= LENGTH + 1.0  # its rear a metre onto the link
+
+
+def _bike_lane(folder: Path) -> Path:
+    """A single junction A: WA from the west has a bicycle lane (lane 0, bicycles only) beside the
+    car lane; bicycles ride straight on to AE's bicycle lane, cars turn right into AS across it (or
+    go straight on); a street from the north (NA) into AS and AE."""
+    (folder / "b.nod.xml").write_text('<nodes><node id="A" x="0" y="0" type="priority"/><node id="W" x="-200" y="0"/>'
+                                      '<node id="E" x="150" y="0"/><node id="S" x="0" y="-150"/>'
+                                      '<node id="N" x="0" y="150"/></nodes>')
+    bike = '<lane index="0" allow="bicycle" width="1.5"/>'
+    (folder / "b.edg.xml").write_text(
+        f'<edges><edge id="WA" from="W" to="A" numLanes="2" speed="13.89">{bike}</edge>'
+        f'<edge id="AE" from="A" to="E" numLanes="2" speed="13.89">{bike}</edge>'
+        '<edge id="AS" from="A" to="S" numLanes="1" speed="13.89"/><edge id="NA" from="N" to="A" numLanes="1" '
+        'speed="13.89"/></edges>')
+    (folder / "b.con.xml").write_text("<connections>" + "".join(
+        f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
+        for a, b, i, j in (("WA", "AE", 0, 0), ("WA", "AE", 1, 1), ("WA", "AS", 1, 0), ("NA", "AS", 0, 0),
+                           ("NA", "AE", 0, 1))) + "</connections>")
+    net = folder / "bike.net.xml"
+    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "b.nod.xml", "-e", "b.edg.xml", "-x", "b.con.xml",
+                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
+    return net
+
+
+def _right_hook(folder: Path, crossing: bool):
+    """An AV turning right at A from 60 m up WA at 10 m/s; a cyclist on WA's bicycle lane at
+    5 m/s, 126 m up, riding straight on: they reach the bicycle lane's crossing together. The
+    bicycle lane is on no movement path of the controller's (cars only), so it does not track the
+    cyclist. (summary, trajectories, SUMO's collision records.)"""
+    folder.mkdir()
+    net = _bike_lane(folder)
+    routes = folder / "demand.rou.xml"
+    routes.write_text(f'<routes>\n{VTYPE}\n<vType id="bike" vClass="bicycle" length="1.6" width="0.65" minGap="0.5" '
+                      'maxSpeed="5.5"/>\n<vehicle id="bike" type="bike" depart="0" departLane="0" departPos="126" '
+                      'departSpeed="5"><route edges="WA AE"/></vehicle>\n<vehicle id="av" type="car" depart="0" '
+                      'departLane="1" departPos="60" departSpeed="10"><route edges="WA AS"/></vehicle>\n</routes>\n')
+    data = {"scenario": {"name": "right_hook", "duration": 30.0, "drain": 30.0, "seed": 1},
+            "controller": {"kind": "nash", "budget_ms": 2000.0, "onboard": {"crossing": crossing}},
+            "network": {"file": str(net), "junctions": ["A"], "routes": str(routes)}}
+    out = folder / "run"
+    summary = run_scenario(scenario_from_dict(data, "<right hook>"), out)
+    return summary, pd.read_csv(out / "trajectories.csv"), read_collisions(out / "collisions.xml")
+
+
+def test_an_av_turning_across_a_bicycle_lane_lets_the_cyclist_on_it_pass(tmp_path):
+    """The right hook: the controller does not see the cyclist; the onboard guard's crossing sense
+    does (SUMO gives the cyclist the right of way over the turning car) and holds the AV before
+    the bicycle lane until the cyclist has passed. Without the sense, the same scene collides."""
+    summary, traj, collisions = _right_hook(tmp_path / "on", crossing=True)
+    assert summary["counts"]["departed"] == summary["counts"]["arrived"] == 2
+    assert _records(collisions) == [], f"SUMO's collisions {_records(collisions)}"
+    assert summary["collisions"]["overlap_pairs_commanded"] == 0
+    assert "bike" not in set(traj["vehicle"])  # never tracked by the controller
+    assert summary["counts"]["onboard_crossing_caps"] > 10
+    av = traj[traj["vehicle"] == "av"]
+    assert av["speed"].min() < 1.0  # [m/s] it waited for the cyclist (inside A, short of the bicycle lane)
+    off, _, _ = _right_hook(tmp_path / "off", crossing=False)
+    assert off["collisions"]["sumo_records_commanded"] > 0  # the scene is a threat: without the sense it collides

@@ -22,7 +22,9 @@ behind that leader: braking at its own ``decel`` after one SUMO step of reaction
   change is instantaneous in SUMO's default lane-change model) is braked for from the next SUMO
   step, at most at ``emergency_decel``; the guard cannot prevent another driver's cut-in.
 * Crossing and merging traffic inside a junction is not ahead on the vehicle's lanes: the junction
-  guard (the controller's safety filter) covers it.
+  guard (the controller's safety filter) covers what the controller tracks, and the crossing sense
+  (control/safety/crossing_sense.py) the road users no controller commands that are already
+  driving through a crossing of the vehicle's path.
 """
 
 from __future__ import annotations
@@ -40,9 +42,16 @@ class OnboardSettings:
     enabled: bool = True  # [-] cap every commanded speed behind the vehicle ahead (false: an ablation)
     sensor_range: float = 150.0  # [m] how far ahead along its route a vehicle sees the vehicle ahead
     margin: float = 0.5  # [m] the guard stops a vehicle at least this far behind its leader's rear
+    # the crossing sense (control/safety/crossing_sense.py): road users no controller commands
+    # driving through a crossing of the vehicle's path inside the next junction
+    crossing: bool = True  # [-] hold a commanded vehicle out of such a crossing (false: an ablation)
+    crossing_buffer: float = 1.0  # [s] time kept between their occupations of the crossing
+    crossing_lookahead: float = 10.0  # [m] looked ahead beyond the vehicle's braking distance
+    crossing_speed: float = 10.0  # [m/s] the speed up to which a waiting vehicle is assumed to accelerate
 
     def check(self) -> list[tuple[str, str]]:
-        return positive(self, "sensor_range") + non_negative(self, "margin")
+        return (positive(self, "sensor_range", "crossing_speed")
+                + non_negative(self, "margin", "crossing_buffer", "crossing_lookahead"))
 
 
 def krauss_safe_speed(gap: float, v_leader: float, decel: float, tau: float, leader_decel: float | None = None) -> float:

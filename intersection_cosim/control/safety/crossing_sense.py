@@ -1,0 +1,128 @@
+"""The onboard guard's second sense: road users already inside a junction whose path crosses the
+commanded vehicle's path there, whatever they are (a bicycle on a bike path the controller does not
+manage, a bus, a human the controller does not track, a vehicle another junction released).
+
+A real AV sees a cyclist crossing in front of it when it turns; the junction controller's safety
+filter only sees the road users on the movement paths it manages. This check, run by the simulator
+adapter for every commanded vehicle every SUMO step (sim/onboard.py), takes the lanes inside the
+junction that SUMO's junction logic lists as foes of the vehicle's lanes there
+(``lane.getInternalFoes``), the crossing point of each pair of centre lines, and every road user
+on such a foe lane that no controller commands.
+
+**Rule.** A road user on a foe lane inside the junction is committed: SUMO's drivers do not stop
+for a vehicle that must yield to them once they have entered. If its occupation of the crossing
+(from its front reaching ``clearance`` before the crossing point, as early as accelerating allows,
+to its rear leaving ``clearance`` after it, as late as keeping its speed gives) overlaps the commanded vehicle's (accelerating from its speed at
+``accel`` until it reaches the crossing, then leaving it at that speed), widened by ``buffer`` [s]
+on each side, the commanded vehicle is held to a speed from which it stops ``margin`` before the
+crossing (the Krauss cap of :func:`~intersection_cosim.control.safety.onboard.guard_speed` behind a
+standing obstacle there).
+
+**What it assumes.** Centre lines that cross (paths that only merge into one lane are the leader
+guard's once they share a lane); road users that keep their speed through the crossing; a commanded
+vehicle that can no longer stop before the crossing is not capped (it is committed too, and
+braking in the crossing would block it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+Point = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """Where two lanes' centre lines cross: at ``s_ego`` [m] along the first, ``s_foe`` [m] along
+    the second, at ``angle`` [rad] between them (0 to pi/2)."""
+
+    s_ego: float
+    s_foe: float
+    angle: float
+
+
+def _segment_hit(p: Point, q: Point, r: Point, s: Point) -> tuple[float, float] | None:
+    """The fractions (t, u) along segments p-q and r-s where they intersect (None: they do not)."""
+    d1 = (q[0] - p[0], q[1] - p[1])
+    d2 = (s[0] - r[0], s[1] - r[1])
+    den = d1[0] * d2[1] - d1[1] * d2[0]
+    if abs(den) < 1e-12:
+        return None
+    w = (r[0] - p[0], r[1] - p[1])
+    t = (w[0] * d2[1] - w[1] * d2[0]) / den
+    u = (w[0] * d1[1] - w[1] * d1[0]) / den
+    return (t, u) if -1e-9 <= t <= 1 + 1e-9 and -1e-9 <= u <= 1 + 1e-9 else None
+
+
+def crossing(ego: list[Point], foe: list[Point]) -> Crossing | None:
+    """The first crossing of polyline ``foe`` along polyline ``ego`` [m] (None: they do not cross)."""
+    s_e = 0.0
+    for i in range(len(ego) - 1):
+        p, q = ego[i], ego[i + 1]
+        len_e = math.dist(p, q)
+        s_f = 0.0
+        for j in range(len(foe) - 1):
+            r, s = foe[j], foe[j + 1]
+            len_f = math.dist(r, s)
+            hit = _segment_hit(p, q, r, s)
+            if hit is not None and len_e > 0 and len_f > 0:
+                cos = abs((q[0] - p[0]) * (s[0] - r[0]) + (q[1] - p[1]) * (s[1] - r[1])) / (len_e * len_f)
+                return Crossing(s_e + hit[0] * len_e, s_f + hit[1] * len_f, math.acos(min(cos, 1.0)))
+            s_f += len_f
+        s_e += len_e
+    return None
+
+
+def clearance(width_ego: float, width_foe: float, angle: float, most: float = 6.0) -> float:
+    """[m] how far before (and after) a crossing point a body of ``width_ego`` [m] first touches
+    (last touches) the path of one of ``width_foe`` [m] crossing it at ``angle`` [rad]; at most
+    ``most`` [m] (nearly parallel paths)."""
+    return min((width_ego + width_foe) / 2.0 / max(math.sin(angle), 1e-3), most)
+
+
+def time_to_cover(distance: float, v: float, accel: float, v_max: float) -> float:
+    """[s] the time to drive ``distance`` [m] from ``v`` [m/s] accelerating at ``accel`` [m/s^2]
+    up to ``v_max`` [m/s] (0 if ``distance`` <= 0; without acceleration at ``v``: never if it
+    stands)."""
+    if distance <= 0:
+        return 0.0
+    if accel <= 0:
+        return distance / v if v > 1e-9 else math.inf
+    v_top = max(v_max, v, 0.1)
+    t_top = max(v_top - v, 0.0) / accel  # [s] until v_max
+    d_top = v * t_top + 0.5 * accel * t_top * t_top  # [m] covered until then
+    if d_top >= distance:
+        return (-v + math.sqrt(v * v + 2.0 * accel * distance)) / accel
+    return t_top + (distance - d_top) / v_top
+
+
+@dataclass(frozen=True)
+class Occupation:
+    """When a body is in a crossing: from ``enter`` to ``leave`` [s] from now."""
+
+    enter: float
+    leave: float
+
+
+def foe_occupation(to_entry: float, to_exit: float, v: float, accel: float, v_max: float) -> Occupation:
+    """A committed road user at ``v`` [m/s] whose front is ``to_entry`` [m] from the crossing's
+    entry and whose rear is ``to_exit`` [m] from its exit, taken at its most dangerous: it enters
+    as early as accelerating at ``accel`` [m/s^2] up to ``v_max`` [m/s] lets it, and leaves as
+    late as keeping its speed does (never, if it stands: it may stay)."""
+    if to_exit <= 0:
+        return Occupation(math.inf, math.inf)  # past it
+    enter = time_to_cover(to_entry, v, accel, v_max)
+    return Occupation(enter, to_exit / v if v > 0.1 else math.inf)
+
+
+def ego_occupation(to_entry: float, through: float, v: float, accel: float, v_max: float) -> Occupation:
+    """The commanded vehicle's: ``to_entry`` [m] from the crossing's entry, ``through`` [m] from
+    there until its rear leaves; accelerating at ``accel`` [m/s^2] up to ``v_max`` [m/s]."""
+    enter = time_to_cover(to_entry, v, accel, v_max)
+    return Occupation(enter, enter + through / max(min(v + accel * enter, max(v_max, v)), 0.1))
+
+
+def overlaps(a: Occupation, b: Occupation, buffer: float) -> bool:
+    """Whether two occupations of one crossing come within ``buffer`` [s] of each other."""
+    return a.enter < b.leave + buffer and b.enter < a.leave + buffer
