@@ -136,7 +136,10 @@ class OnboardGuard:
             return target  # nobody untracked inside or on the way in: the common case, no more queries
         foes = [f for f in self.api.vehicle.getJunctionFoes(vid, reach) if f[0] in self._untracked_ids]
         waits = {f[0] for f in foes if f[8]}  # SUMO's right of way: they must let vid pass
-        gaps = [self._inside(vid, v, lane, start, foe, other, states, bodies, other in waits)
+        # a road user standing inside the junction that vid is in too waits for vid: SUMO holds a
+        # driver at an internal stop for a vehicle on a foe lane inside the junction
+        in_junction = states[vid][libsumo.VAR_LANE_ID].startswith(":")
+        gaps = [self._inside(vid, v, lane, start, foe, other, states, bodies, in_junction or other in waits)
                 for lane, start in chain.items() for foe in self._lane(lane)[2] for other, _ in near.get(foe, ())]
         gaps += [self._approaching(vid, v, chain, f, states, bodies) for f in foes if f[7]]  # vid must let them pass
         for gap in gaps:
@@ -202,6 +205,9 @@ class OnboardGuard:
         return self._yield_gap(vid, v, start + cr.s_ego - c, 2.0 * c + own[0], other, cr.s_foe - c - pos,
                                cr.s_foe + c + body[0] - pos, states, bodies, waits)
 
+    def _lane_of(self, vid: str, states: Mapping[str, dict]) -> str:
+        return states[vid][libsumo.VAR_LANE_ID] if vid in states else self.api.vehicle.getLaneID(vid)
+
     def _to_lane_start(self, vid: str, lane: str) -> float | None:
         """[m] from ``vid``'s front to the start of ``lane`` (negative: on it), if it is on it or on
         a normal lane just before it; None otherwise."""
@@ -228,7 +234,10 @@ class OnboardGuard:
             if start is not None:
                 f_entry = min(f_entry, start + cr.s_foe - c)
                 f_leave = max(f_leave, start + cr.s_foe + c + body[0])
-        return self._yield_gap(vid, v, entry, leave - entry, other, f_entry, f_leave, states, bodies)
+        # one standing before the junction waits for someone (it has the right of way over vid): SUMO's
+        # drivers start only once the junction lets them, and then it is moving and counted
+        outside = not self._lane_of(other, states).startswith(":")
+        return self._yield_gap(vid, v, entry, leave - entry, other, f_entry, f_leave, states, bodies, outside)
 
     def _yield_gap(self, vid: str, v: float, to_entry: float, through: float, other: str, foe_to_entry: float,
                    foe_to_exit: float, states: Mapping[str, dict], bodies: Mapping[str, Body],
@@ -237,7 +246,8 @@ class OnboardGuard:
         must stop before it for ``other`` (whose front is ``foe_to_entry`` [m] from it and whose
         rear leaves it after ``foe_to_exit`` [m]); None if their occupations do not overlap or
         ``vid`` can no longer stop before it (``through`` [m]: from the entry until its rear leaves;
-        ``waits``: a standing ``other`` that SUMO has yield to ``vid`` is taken to stay)."""
+        ``waits``: a standing ``other`` that waits, because SUMO has it yield to ``vid`` or because
+        it stands before the junction, is taken to stay)."""
         own = bodies[vid]
         hardest = max(own[4], own[3])  # [m/s^2]
         if to_entry < v * v / (2.0 * hardest):

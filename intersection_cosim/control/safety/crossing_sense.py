@@ -19,7 +19,13 @@ crossing (the Krauss cap of :func:`~intersection_cosim.control.safety.onboard.gu
 standing obstacle there).
 
 **What it assumes.** Centre lines that cross (paths that only merge into one lane are the leader
-guard's once they share a lane); road users that keep their speed through the crossing; a commanded
+guard's once they share a lane); road users that keep their speed through the crossing; a road user
+standing inside the junction may start at any moment unless SUMO has it yield to the vehicle or the
+vehicle is inside the junction too (SUMO holds a driver at an internal stop for a vehicle on a foe
+lane inside the junction), one
+standing before the junction waits (SUMO's drivers start only once the junction lets them, and a
+moving one counts again: otherwise a vehicle and a road user that waits for a third one that waits
+for the vehicle lock each other); a commanded
 vehicle that can no longer stop before the crossing is not capped (it is committed too, and
 braking in the crossing would block it).
 """
