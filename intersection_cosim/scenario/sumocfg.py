@@ -49,6 +49,19 @@ CONFIG_ROOTS = ("configuration", "sumoConfiguration")  # hand-written configs, a
 LOADING_OPTIONS = ("xml-validation", "xml-validation.net", "xml-validation.routes")
 
 
+ROUTE_FILE_TAGS = DEMAND_TAGS + ("vType", "vTypeDistribution", "route", "routeDistribution")
+
+
+def _is_demand(path: str) -> bool:
+    """Whether an additional file is a route file in all but name: it holds demand and nothing a
+    route file cannot (SUMO's own demo configs list their routes as additional files)."""
+    try:
+        tags = {el.tag for el in xml_root(path)}
+    except Exception:  # unreadable: SUMO will say so when it loads it
+        return False
+    return bool(tags & set(DEMAND_TAGS)) and tags <= set(ROUTE_FILE_TAGS)
+
+
 def read_sumocfg(src: str, value: Any, path: str) -> SumoConfig:
     """The inputs and times of the SUMO config ``path`` (``value`` as the scenario gave it, for
     messages); an InputError if it is missing or not a SUMO configuration."""
@@ -71,9 +84,11 @@ def read_sumocfg(src: str, value: Any, path: str) -> SumoConfig:
             except ValueError:
                 raise InputError(src, f"{field} <{key}>", options[key], "is not a time [s]") from None
     nets = _files(options.get("net-file", ""), folder)
+    additional = _files(options.get("additional-files", ""), folder)
+    demand = tuple(f for f in additional if _is_demand(f))  # SUMO loads them first, as additional files
     return SumoConfig(path=path, net=nets[0] if nets else None,
-                      routes=_files(options.get("route-files", ""), folder),
-                      additional=_files(options.get("additional-files", ""), folder),
+                      routes=demand + _files(options.get("route-files", ""), folder),
+                      additional=tuple(f for f in additional if f not in demand),
                       begin=times.get("begin"), end=times.get("end"),
                       loading=tuple((k, options[k]) for k in LOADING_OPTIONS if k in options))
 

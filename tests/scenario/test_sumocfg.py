@@ -108,6 +108,21 @@ def test_additional_files_of_the_config_are_passed_on(tmp_path):
     assert cfg.find("input/additional-files").get("value") == str(tmp_path / "det.add.xml")
 
 
+def test_an_additional_file_holding_only_demand_is_read_as_a_route_file(tmp_path):
+    """SUMO's own demo configs (tools/game/square.sumocfg) list their routes as additional files:
+    such a file is demand (counted, cut to the window, loaded before the route files); one with
+    anything else stays an additional file."""
+    (tmp_path / "more.rou.xml").write_text('<routes><vType id="bus" length="12"/>'
+                                           '<flow id="g" type="bus" begin="100" end="300" period="100" '
+                                           'from="1fi" to="2o"/></routes>')
+    (tmp_path / "det.add.xml").write_text('<additional><vType id="x"/><inductionLoop id="d" lane="1fi_0" '
+                                          'pos="5" period="60" file="NUL"/></additional>')
+    _config(tmp_path, extra='<additional-files value="det.add.xml,more.rou.xml"/>')
+    scn = load_scenario(_scenario(tmp_path))
+    assert scn.network.routes == (str(tmp_path / "more.rou.xml"), str(tmp_path / "city.rou.xml"))
+    assert scn.network.additional == (str(tmp_path / "det.add.xml"),)
+
+
 @pytest.mark.parametrize("extra, network, field", [
     ("", 'routes = "missing.rou.xml"', "network.routes"),
     ("", 'sumocfg = "nope.sumocfg"', "network.sumocfg"),
