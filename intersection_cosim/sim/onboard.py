@@ -46,7 +46,8 @@ class OnboardGuard:
     _into: dict | None = None  # lane -> the lanes whose links lead onto it (the net read backwards)
     _feed_of: dict = field(default_factory=dict)  # internal lane -> {lane: budget [m]}, see _feed
     _feeders: dict = field(default_factory=dict)  # internal lane -> its foes' feeds merged (_foes_feed)
-    _untracked: dict = field(default_factory=dict)  # this step: lane -> (road user, position [m]) no controller commands or tracks
+    # this step: lane -> (road user, its position [m]) for the road users no controller commands or tracks
+    _untracked: dict = field(default_factory=dict)
     _untracked_ids: set = field(default_factory=set)  # this step: those road users
 
     def begin_step(self, states: Mapping[str, dict], tracked: Collection[str], commanded: Collection[str]) -> None:
@@ -131,8 +132,8 @@ class OnboardGuard:
         chain = dict(self.junction_lanes(vid, states[vid][libsumo.VAR_LANE_ID], states[vid][libsumo.VAR_LANEPOSITION],
                                          reach))
         near = self._untracked
-        if not chain or not any(self._lane(f)[0] - pos <= budget for lane in chain for f, budget in self._foes_feed(lane).items()
-                   for _, pos in near.get(f, ())):
+        if not chain or not any(self._lane(f)[0] - pos <= budget for lane in chain
+                                for f, budget in self._foes_feed(lane).items() for _, pos in near.get(f, ())):
             return target  # nobody untracked inside or on the way in: the common case, no more queries
         foes = [f for f in self.api.vehicle.getJunctionFoes(vid, reach) if f[0] in self._untracked_ids]
         waits = {f[0] for f in foes if f[8]}  # SUMO's right of way: they must let vid pass

@@ -1,33 +1,33 @@
-"""The onboard guard's second sense: road users already inside a junction whose path crosses the
-commanded vehicle's path there, whatever they are (a bicycle on a bike path the controller does not
-manage, a bus, a human the controller does not track, a vehicle another junction released).
+"""The onboard guard's second sense: road users whose path crosses the commanded vehicle's inside
+its next junction and that no controller commands or tracks (a cyclist on a bicycle lane the
+controller does not manage, a vehicle on no managed movement path, one another junction released).
 
 A real AV sees a cyclist crossing in front of it when it turns; the junction controller's safety
 filter only sees the road users on the movement paths it manages. This check, run by the simulator
-adapter for every commanded vehicle every SUMO step (sim/onboard.py), takes the lanes inside the
-junction that SUMO's junction logic lists as foes of the vehicle's lanes there
-(``lane.getInternalFoes``), the crossing point of each pair of centre lines, and every road user
-on such a foe lane that no controller commands.
+adapter for every commanded vehicle every SUMO step (sim/onboard.py), reads SUMO's junction
+model: the lanes inside the junction that SUMO lists as foes of the vehicle's lanes there
+(``lane.getInternalFoes``) with the road users on them, the crossing point of each pair of centre
+lines, and SUMO's junction foes of the vehicle (``vehicle.getJunctionFoes``) with who must yield.
 
-**Rule.** A road user on a foe lane inside the junction is committed: SUMO's drivers do not stop
-for a vehicle that must yield to them once they have entered. If its occupation of the crossing
-(from its front reaching ``clearance`` before the crossing point, as early as accelerating allows,
-to its rear leaving ``clearance`` after it, as late as keeping its speed gives) overlaps the commanded vehicle's (accelerating from its speed at
-``accel`` until it reaches the crossing, then leaving it at that speed), widened by ``buffer`` [s]
-on each side, the commanded vehicle is held to a speed from which it stops ``margin`` before the
-crossing (the Krauss cap of :func:`~intersection_cosim.control.safety.onboard.guard_speed` behind a
-standing obstacle there).
+**Rule.** The vehicle must let such a road user pass if it is already on a foe lane inside the
+junction (SUMO's drivers do not stop for a vehicle that must yield to them once they have
+entered), or if SUMO gives it the right of way over the vehicle. Its occupation of the crossing
+runs from its front reaching ``clearance`` before the crossing point, as early as accelerating
+allows, to its rear leaving ``clearance`` after it, as late as keeping its speed gives; the
+vehicle's from its front reaching the crossing (accelerating from its speed at ``accel``) to its
+rear leaving it. If the two come within ``buffer`` [s] of each other, the vehicle is held to a
+speed from which it stops ``margin`` before the crossing (the Krauss cap of
+:func:`~intersection_cosim.control.safety.onboard.guard_speed` behind a standing obstacle there).
 
 **What it assumes.** Centre lines that cross (paths that only merge into one lane are the leader
 guard's once they share a lane); road users that keep their speed through the crossing; a road user
 standing inside the junction may start at any moment unless SUMO has it yield to the vehicle or the
 vehicle is inside the junction too (SUMO holds a driver at an internal stop for a vehicle on a foe
-lane inside the junction), one
-standing before the junction waits (SUMO's drivers start only once the junction lets them, and a
-moving one counts again: otherwise a vehicle and a road user that waits for a third one that waits
-for the vehicle lock each other); a commanded
-vehicle that can no longer stop before the crossing is not capped (it is committed too, and
-braking in the crossing would block it).
+lane inside the junction), one standing before the junction waits (SUMO's drivers start only once
+the junction lets them, and a moving one counts again: otherwise a vehicle and a road user that
+waits for a third one that waits for the vehicle lock each other); a commanded vehicle that can no
+longer stop before the crossing is not capped (it is committed too, and braking in the crossing
+would block it).
 """
 
 from __future__ import annotations
