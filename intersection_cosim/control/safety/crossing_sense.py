@@ -35,6 +35,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from sumolib import geomhelper
+
 Point = tuple[float, float]
 
 
@@ -48,36 +50,16 @@ class Crossing:
     angle: float
 
 
-def _segment_hit(p: Point, q: Point, r: Point, s: Point) -> tuple[float, float] | None:
-    """The fractions (t, u) along segments p-q and r-s where they intersect (None: they do not)."""
-    d1 = (q[0] - p[0], q[1] - p[1])
-    d2 = (s[0] - r[0], s[1] - r[1])
-    den = d1[0] * d2[1] - d1[1] * d2[0]
-    if abs(den) < 1e-12:
-        return None
-    w = (r[0] - p[0], r[1] - p[1])
-    t = (w[0] * d2[1] - w[1] * d2[0]) / den
-    u = (w[0] * d1[1] - w[1] * d1[0]) / den
-    return (t, u) if -1e-9 <= t <= 1 + 1e-9 and -1e-9 <= u <= 1 + 1e-9 else None
-
-
 def crossing(ego: list[Point], foe: list[Point]) -> Crossing | None:
-    """The first crossing of polyline ``foe`` along polyline ``ego`` [m] (None: they do not cross)."""
-    s_e = 0.0
-    for i in range(len(ego) - 1):
-        p, q = ego[i], ego[i + 1]
-        len_e = math.dist(p, q)
-        s_f = 0.0
-        for j in range(len(foe) - 1):
-            r, s = foe[j], foe[j + 1]
-            len_f = math.dist(r, s)
-            hit = _segment_hit(p, q, r, s)
-            if hit is not None and len_e > 0 and len_f > 0:
-                cos = abs((q[0] - p[0]) * (s[0] - r[0]) + (q[1] - p[1]) * (s[1] - r[1])) / (len_e * len_f)
-                return Crossing(s_e + hit[0] * len_e, s_f + hit[1] * len_f, math.acos(min(cos, 1.0)))
-            s_f += len_f
-        s_e += len_e
-    return None
+    """The first crossing of polyline ``foe`` along polyline ``ego`` [m] (None: they do not
+    cross), by sumolib's polyline geometry."""
+    hits = geomhelper.intersectsAtLengths2D(ego, foe)
+    if not hits:
+        return None
+    s_ego = min(hits)  # [m]
+    s_foe = geomhelper.polygonOffsetWithMinimumDistanceToPoint(geomhelper.positionAtShapeOffset(ego, s_ego), foe)
+    turn = abs(geomhelper.rotationAtShapeOffset(ego, s_ego) - geomhelper.rotationAtShapeOffset(foe, s_foe)) % math.pi
+    return Crossing(s_ego, s_foe, min(turn, math.pi - turn))
 
 
 def clearance(width_ego: float, width_foe: float, angle: float, most: float = 6.0) -> float:
