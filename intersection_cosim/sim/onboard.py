@@ -54,6 +54,8 @@ class OnboardGuard:
         """This SUMO step's road users that no controller commands (``commanded``) or tracks
         (``tracked``: on a managed movement path, whose crossings the safety filter orders), by lane."""
         self._untracked = {}
+        if not self.settings.crossing:
+            return
         for vid, res in states.items():
             if vid not in tracked and vid not in commanded:
                 self._untracked.setdefault(res[libsumo.VAR_LANE_ID], []).append((vid, res[libsumo.VAR_LANEPOSITION]))
