@@ -142,8 +142,8 @@ class OnboardGuard:
         # a road user standing inside the junction that vid is in too waits for vid: SUMO holds a
         # driver at an internal stop for a vehicle on a foe lane inside the junction
         in_junction = states[vid][libsumo.VAR_LANE_ID].startswith(":")
-        gaps = [self._inside(vid, v, lane, start, foe, other, states, bodies, in_junction or other in waits)
-                for lane, start in chain.items() for foe in self._lane(lane)[2] for other, _ in near.get(foe, ())]
+        gaps = [self._inside(vid, v, lane, start, foe, other, pos, states, bodies, in_junction or other in waits)
+                for lane, start in chain.items() for foe in self._lane(lane)[2] for other, pos in near.get(foe, ())]
         gaps += [self._approaching(vid, v, chain, f, states, bodies) for f in foes if f[7]]  # vid must let them pass
         for gap in gaps:
             if gap is None:
@@ -194,27 +194,23 @@ class OnboardGuard:
             self._top[vid] = self.api.vehicle.getMaxSpeed(vid)
         return self._top[vid]
 
-    def _inside(self, vid: str, v: float, lane: str, start: float, foe: str, other: str,
+    def _inside(self, vid: str, v: float, lane: str, start: float, foe: str, other: str, pos: float,
                 states: Mapping[str, dict], bodies: Mapping[str, Body], waits: bool) -> float | None:
-        """:meth:`_yield_gap` for ``other`` on the internal lane ``foe`` whose centre line crosses
-        ``lane``, which starts ``start`` [m] ahead of ``vid``'s front (``waits``: SUMO has it
-        yield to ``vid``, so standing it stays)."""
+        """:meth:`_yield_gap` for ``other``, its front at ``pos`` [m] on the internal lane ``foe``
+        whose centre line crosses ``lane``, which starts ``start`` [m] ahead of ``vid``'s front
+        (``waits``: SUMO has it yield to ``vid``, so standing it stays)."""
         cr = self._crossing(lane, foe)
         if cr is None:
             return None
         own, body = bodies[vid], self._body(other, bodies)
         c = clearance(own[1], body[1], cr.angle)  # [m]
-        pos = self.api.vehicle.getLanePosition(other)  # [m] its front on the foe lane
         return self._yield_gap(vid, v, start + cr.s_ego - c, 2.0 * c + own[0], other, cr.s_foe - c - pos,
                                cr.s_foe + c + body[0] - pos, states, bodies, waits)
 
-    def _lane_of(self, vid: str, states: Mapping[str, dict]) -> str:
-        return states[vid][libsumo.VAR_LANE_ID] if vid in states else self.api.vehicle.getLaneID(vid)
-
-    def _to_lane_start(self, vid: str, lane: str) -> float | None:
+    def _to_lane_start(self, vid: str, lane: str, states: Mapping[str, dict]) -> float | None:
         """[m] from ``vid``'s front to the start of ``lane`` (negative: on it), if it is on it or on
-        a normal lane just before it; None otherwise."""
-        on, pos = self.api.vehicle.getLaneID(vid), self.api.vehicle.getLanePosition(vid)
+        a normal lane just before it; None otherwise (its lane and position as last read)."""
+        on, pos = states[vid][libsumo.VAR_LANE_ID], states[vid][libsumo.VAR_LANEPOSITION]
         if on == lane:
             return -pos
         return None if on.startswith(":") else self._lane(on)[0] - pos
@@ -233,13 +229,13 @@ class OnboardGuard:
             c = clearance(own[1], body[1], cr.angle)  # [m]
             entry = min(entry, chain[ego_lane] + cr.s_ego - c)
             leave = max(leave, chain[ego_lane] + cr.s_ego + c + own[0])
-            start = self._to_lane_start(other, foe_lane)
+            start = self._to_lane_start(other, foe_lane, states)
             if start is not None:
                 f_entry = min(f_entry, start + cr.s_foe - c)
                 f_leave = max(f_leave, start + cr.s_foe + c + body[0])
         # one standing before the junction waits for someone (it has the right of way over vid): SUMO's
         # drivers start only once the junction lets them, and then it is moving and counted
-        outside = not self._lane_of(other, states).startswith(":")
+        outside = not states[other][libsumo.VAR_LANE_ID].startswith(":")
         return self._yield_gap(vid, v, entry, leave - entry, other, f_entry, f_leave, states, bodies, outside)
 
     def _yield_gap(self, vid: str, v: float, to_entry: float, through: float, other: str, foe_to_entry: float,
@@ -255,7 +251,7 @@ class OnboardGuard:
         hardest = max(own[4], own[3])  # [m/s^2]
         if to_entry < v * v / (2.0 * hardest):
             return None  # it cannot stop before the crossing any more: it is committed too
-        v_other = states[other][libsumo.VAR_SPEED] if other in states else self.api.vehicle.getSpeed(other)
+        v_other = states[other][libsumo.VAR_SPEED]  # [m/s] (every untracked road user is in states)
         accel = 0.0 if waits and v_other < 0.1 else self._body(other, bodies)[2]  # [m/s^2]
         theirs = foe_occupation(foe_to_entry, foe_to_exit, v_other, accel, self._max_speed(other))
         mine = ego_occupation(to_entry, through, v, own[2], self.settings.crossing_speed)
