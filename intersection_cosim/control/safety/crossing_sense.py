@@ -58,8 +58,19 @@ def crossing(ego: list[Point], foe: list[Point]) -> Crossing | None:
         return None
     s_ego = min(hits)  # [m]
     s_foe = geomhelper.polygonOffsetWithMinimumDistanceToPoint(geomhelper.positionAtShapeOffset(ego, s_ego), foe)
-    turn = abs(geomhelper.rotationAtShapeOffset(ego, s_ego) - geomhelper.rotationAtShapeOffset(foe, s_foe)) % math.pi
+    turn = abs(_rotation(ego, s_ego) - _rotation(foe, s_foe)) % math.pi
     return Crossing(s_ego, s_foe, min(turn, math.pi - turn))
+
+
+def _rotation(shape: list[Point], s: float) -> float:
+    """[rad] the direction of polyline ``shape`` at ``s`` [m]; at (or past) its end that of its last
+    segment (sumolib's rotationAtShapeOffset has none there, and two lanes meeting at their end
+    points, as at a merge, cross there)."""
+    rotation = geomhelper.rotationAtShapeOffset(shape, s)
+    if rotation is None:
+        (x0, y0), (x1, y1) = shape[-2], shape[-1]
+        rotation = math.atan2(y1 - y0, x1 - x0)
+    return rotation
 
 
 def clearance(width_ego: float, width_foe: float, angle: float, most: float = 6.0) -> float:

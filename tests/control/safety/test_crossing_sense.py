@@ -19,6 +19,16 @@ def test_crossing_is_found_at_its_arc_lengths_along_both_polylines():
     assert oblique.angle == pytest.approx(math.pi / 4) and oblique.s_ego == pytest.approx(5.0)
 
 
+def test_two_lanes_meeting_at_their_end_points_cross_there():
+    """A merge: both centre lines end at one point (sumolib gives no direction at a polyline's
+    end; the crossing takes its last segment's)."""
+    c = crossing([(0.0, 0.0), (10.0, 0.0)], [(10.0, -10.0), (10.0, 0.0)])
+    assert c.s_ego == pytest.approx(10.0) and c.s_foe == pytest.approx(10.0)
+    assert c.angle == pytest.approx(math.pi / 2)
+    slanted = crossing([(0.0, 0.0), (10.0, 0.0)], [(0.0, -10.0), (5.0, -5.0), (10.0, 0.0)])
+    assert slanted.angle == pytest.approx(math.pi / 4)
+
+
 def test_clearance_grows_as_the_paths_turn_parallel_and_is_bounded():
     square = clearance(1.8, 0.65, math.pi / 2)
     assert square == pytest.approx((1.8 + 0.65) / 2)
