@@ -34,6 +34,7 @@ from intersection_cosim.control.safety.rules import Rule
 from intersection_cosim.control.safety.rules.leader_gap import NAME as LEADER_GAP
 from intersection_cosim.control.safety.step import FilterStep, SafetyResult
 from intersection_cosim.games.problem import Plan
+from intersection_cosim.network.movements import PASSING, READY
 
 LOOKS = 2  # [-] looks at the crossings a step: the second sees the vehicles the first braked
 
@@ -51,10 +52,18 @@ class SafetyFilter:
         self.pedestrian_holds = 0  # [-] control steps x vehicles held back for a pedestrian
 
     def record_entries(self, world: World) -> None:
-        """Put vehicles that entered the junction ("passing") into the entry queue."""
+        """Put vehicles that entered the junction ("passing") into the entry queue, and take out a
+        vehicle read standing (below ``clear_speed``) before its stop line again ("ready"): read
+        over a noisy link, a vehicle waiting at its line flickers across it, and a first flicker
+        must not rank it, for good, ahead of every vehicle that entered later (it would hold
+        them while it waits for them: a lock). Exact positions never go back, so without noise
+        the queue is as before."""
+        clear_speed = self.junction.settings.clear_speed  # [m/s]
         for k in range(len(world)):
-            if world.role[k] == "passing":
+            if world.role[k] == PASSING:
                 self.entered.setdefault(world.ids[k], world.time)
+            elif world.role[k] == READY and float(world.v[k]) < clear_speed:
+                self.entered.pop(world.ids[k], None)
 
     def release(self, vehicle: str) -> None:
         """Forget a vehicle that left the junction's paths."""
