@@ -1,11 +1,15 @@
-"""The crossing sense's geometry and timing (control/safety/crossing_sense.py), without SUMO."""
+"""The crossing sense's geometry and timing (control/safety/crossing_sense.py), without SUMO (sumolib reads one shipped net)."""
 
 import math
+from pathlib import Path
 
 import pytest
+import sumolib
 
 from intersection_cosim.control.safety.crossing_sense import (Occupation, clearance, crossing, ego_occupation,
                                                               foe_occupation, overlaps, time_to_cover)
+
+GRID = Path(__file__).resolve().parents[3] / "sumo_networks" / "grid3x3" / "grid3x3.net.xml"
 
 
 def test_crossing_is_found_at_its_arc_lengths_along_both_polylines():
@@ -27,6 +31,17 @@ def test_two_lanes_meeting_at_their_end_points_cross_there():
     assert c.angle == pytest.approx(math.pi / 2)
     slanted = crossing([(0.0, 0.0), (10.0, 0.0)], [(0.0, -10.0), (5.0, -5.0), (10.0, 0.0)])
     assert slanted.angle == pytest.approx(math.pi / 4)
+
+
+def test_two_internal_lanes_of_the_shipped_grid_merging_at_their_end_cross_there():
+    """grid_high's junction C2: a left turn and a right turn end at one point of their exit lane
+    (the step crashed on this pair at 20 s of grid_high)."""
+    net = sumolib.net.readNet(str(GRID), withInternal=True)
+    left, right = net.getLane(":C2_1_1").getShape(), net.getLane(":C2_17_0").getShape()
+    assert left[-1] == right[-1]
+    c = crossing(left, right)
+    assert c.s_ego == pytest.approx(net.getLane(":C2_1_1").getLength(), abs=0.5)
+    assert 0.0 < c.angle < math.pi / 4
 
 
 def test_clearance_grows_as_the_paths_turn_parallel_and_is_bounded():
