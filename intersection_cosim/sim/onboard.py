@@ -5,7 +5,10 @@ Every SUMO step the adapter asks SUMO for the nearest vehicle ahead of each comm
 junctions, within the sensor range), whatever drives that vehicle, and caps the speed command by
 :func:`~intersection_cosim.control.safety.onboard.guard_speed`. SUMO measures the leader's
 distance from the vehicle's front plus its minGap to the leader's rear; the guard adds the minGap
-back, so its gap is bumper to bumper.
+back, so its gap is bumper to bumper. SUMO's query does not return a vehicle whose front has
+turned onto an internal lane the vehicle does not take while its rear is still on the vehicle's
+lane (a right turner just past the stop line, ahead of a vehicle going straight from the same
+lane); the guard finds those rears itself, on the internal lanes leaving the vehicle's lane.
 
 It then holds the vehicle out of a crossing inside the next junction that a road user no controller
 commands is driving through (:mod:`~intersection_cosim.control.safety.crossing_sense`: SUMO's
@@ -27,6 +30,7 @@ from intersection_cosim.control.safety.crossing_sense import (Crossing, clearanc
 from intersection_cosim.control.safety.onboard import OnboardSettings, guard_speed
 
 FEED = 100.0  # [m] how far upstream of a crossing a road user with the right of way is looked for
+MAX_BODY = 25.0  # [m] the longest body whose rear can trail back over internal lanes onto the lane before
 Body = tuple[float, float, float, float, float]  # length [m], width [m], accel, decel, emergency decel [m/s^2]
 
 
@@ -49,11 +53,16 @@ class OnboardGuard:
     # this step: lane -> (road user, its position [m]) for the road users no controller commands or tracks
     _untracked: dict = field(default_factory=dict)
     _untracked_ids: set = field(default_factory=set)  # this step: those road users
+    _internal: dict = field(default_factory=dict)  # this step: internal lane -> (vehicle, its position [m])
 
     def begin_step(self, states: Mapping[str, dict], tracked: Collection[str], commanded: Collection[str]) -> None:
         """This SUMO step's road users that no controller commands (``commanded``) or tracks
         (``tracked``: on a managed movement path, whose crossings the safety filter orders), by lane."""
-        self._untracked = {}
+        self._untracked, self._internal = {}, {}
+        for vid, res in states.items():
+            lane = res[libsumo.VAR_LANE_ID]
+            if lane.startswith(":"):
+                self._internal.setdefault(lane, []).append((vid, res[libsumo.VAR_LANEPOSITION]))
         if not self.settings.crossing:
             return
         for vid, res in states.items():
@@ -74,18 +83,38 @@ class OnboardGuard:
             target = self._crossing_speed(vid, v, target, states, bodies)
             self.crossing_caps += target < asked
         lead = self.api.vehicle.getLeader(vid, self.settings.sensor_range)
-        if not lead or not lead[0]:
+        ahead = [(lead[0], lead[1] + min_gaps.get(vid, 0.0))] if lead and lead[0] else []  # [m] bumper to bumper
+        ahead += self._rears_on_lane(vid, states, bodies)
+        if not ahead:
             self.caps += target < asked
             return target
-        lid, dist = lead
+        lid, gap = min(ahead, key=lambda a: a[1])
         own, other = bodies[vid], bodies.get(lid)
         v_lead = states[lid][libsumo.VAR_SPEED] if lid in states else self.api.vehicle.getSpeed(lid)  # [m/s]
         lead_decel = other[3] if other is not None else self.api.vehicle.getDecel(lid)  # [m/s^2]
-        gap = dist + min_gaps.get(vid, 0.0)  # [m] bumper to bumper
         capped = guard_speed(v, target, gap, v_lead, own[3], lead_decel, max(own[4], own[3]), self.step_length,
                              self.settings.margin)
         self.caps += capped < asked
         return capped
+
+    def _rears_on_lane(self, vid: str, states: Mapping[str, dict], bodies: Mapping[str, Body]) -> list[tuple[str, float]]:
+        """(vehicle, gap [m] bumper to bumper) of each vehicle whose front is on an internal lane
+        leaving ``vid``'s lane (or on the internal lane after it) while its rear is still on
+        ``vid``'s lane, ahead of ``vid``: SUMO's leader query misses one that turns where ``vid``
+        goes on."""
+        lane, pos = states[vid][libsumo.VAR_LANE_ID], states[vid][libsumo.VAR_LANEPOSITION]
+        to_end = self._lane(lane)[0] - pos  # [m] from vid's front to its lane's end
+        out, frontier = [], [(link[4], 0.0) for link in self._lane(lane)[3] if link[4]]
+        while frontier:
+            via, start = frontier.pop()  # start [m]: where the internal lane begins, past the lane's end
+            for uid, upos in self._internal.get(via, ()):
+                rear = start + upos - (bodies[uid][0] if uid in bodies else self.api.vehicle.getLength(uid))
+                if uid != vid and rear < 0.0:  # [m] its rear still on vid's lane
+                    out.append((uid, to_end + rear))
+            length = self._lane(via)[0]
+            if start + length < MAX_BODY:  # a body this long may reach back over this internal lane
+                frontier += [(link[4], start + length) for link in self._lane(via)[3] if link[4]]
+        return out
 
     def _lane(self, lane: str) -> tuple:
         """(length [m], centre line, internal foe lanes, links) of ``lane``, read once."""
