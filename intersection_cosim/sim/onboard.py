@@ -56,18 +56,18 @@ class OnboardGuard:
     _internal: dict = field(default_factory=dict)  # this step: internal lane -> (vehicle, its position [m])
 
     def begin_step(self, states: Mapping[str, dict], tracked: Collection[str], commanded: Collection[str]) -> None:
-        """This SUMO step's road users that no controller commands (``commanded``) or tracks
-        (``tracked``: on a managed movement path, whose crossings the safety filter orders), by lane."""
+        """This SUMO step's vehicles on internal lanes (whose rears :meth:`_rears_on_lane` looks
+        for), and, with the crossing sense on, its road users that no controller commands
+        (``commanded``) or tracks (``tracked``: on a managed movement path, whose crossings the
+        safety filter orders), by lane; one pass over ``states``."""
         self._untracked, self._internal = {}, {}
+        crossing = self.settings.crossing
         for vid, res in states.items():
-            lane = res[libsumo.VAR_LANE_ID]
+            lane, pos = res[libsumo.VAR_LANE_ID], res[libsumo.VAR_LANEPOSITION]
             if lane.startswith(":"):
-                self._internal.setdefault(lane, []).append((vid, res[libsumo.VAR_LANEPOSITION]))
-        if not self.settings.crossing:
-            return
-        for vid, res in states.items():
-            if vid not in tracked and vid not in commanded:
-                self._untracked.setdefault(res[libsumo.VAR_LANE_ID], []).append((vid, res[libsumo.VAR_LANEPOSITION]))
+                self._internal.setdefault(lane, []).append((vid, pos))
+            if crossing and vid not in tracked and vid not in commanded:
+                self._untracked.setdefault(lane, []).append((vid, pos))
         self._untracked_ids = {vid for ids in self._untracked.values() for vid, _ in ids}
 
     def speed(self, vid: str, v: float, target: float, states: Mapping[str, dict], bodies: Mapping[str, Body],
