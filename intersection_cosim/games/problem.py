@@ -230,6 +230,17 @@ def speed_cap(player: Player, v_max_default: float) -> float:
     return max(v_max, player.v0)
 
 
+def keeps_speed_cap(plan: Plan, v_max_now: float, v_max_then: float) -> bool:
+    """Whether a kept plan (shifted) stays within the speed cap a solve now would impose: v_max
+    [m/s], or, for a plan that starts faster (a vehicle that came in above it, :func:`speed_cap`),
+    its own start speed, as long as v_max is the one it was solved for (``v_max_then`` [m/s]).
+    Without the second case every vehicle entering faster than its v_max is solved every step."""
+    top = float(plan.speeds.max())  # [m/s]
+    if top <= v_max_now + 1e-6:
+        return True
+    return v_max_now == v_max_then and top <= float(plan.speeds[0]) + 1e-6
+
+
 def safe_plan(player: Player, settings: GameSettings) -> Plan:
     """Comfortable braking to a stop at ``settings.problem.comfort_brake``, respecting v >= 0.
 

@@ -115,3 +115,21 @@ def test_arrival_is_the_first_plan_time_at_the_point_or_the_horizon_end():
     assert arrival(plan, 9.95) == pytest.approx(1.0)  # 10 m after 1.0 s
     assert arrival(plan, 25.0) == pytest.approx(2.5)
     assert arrival(plan, 31.0) == pytest.approx(3.0)  # not within the 3 s horizon: its end
+
+
+def test_a_game_of_a_player_entering_above_v_max_is_kept_too(paths, net_file):
+    """S comes in at 13 m/s, above the model's v_max of 10 m/s: its plans start at that speed
+    and slow down (the solver's cap is the start speed, games.problem.speed_cap); the steady game
+    is kept between solves as one of two players within v_max is."""
+    c, solves = _controller(net_file, 5)
+    t = c.table
+    p, q = t.index[LEFT], t.index[STRAIGHT]
+    world = make_world(paths, 0.0, [("L", LEFT, t.s_a[p, q] - 22.0, 8.0), ("S", STRAIGHT, t.s_a[q, p] - 44.0, 13.0)])
+    kept = []  # S's speed [m/s] at each step that kept the game
+    for n in range(10):
+        before = len(solves)
+        assert c.decide(world, time.perf_counter() + 10.0).games == 1
+        if len(solves) == before:
+            kept.append(float(world.v[1]))
+        world = _as_planned(c, paths, 0.1 * (n + 1))
+    assert len([v for v in kept if v > 10.0]) >= 3  # kept while S is still above v_max

@@ -643,3 +643,32 @@ def test_the_compiled_kernels_are_loaded_before_the_first_step(tmp_path):
     before, after = json.loads(out.stdout.strip().splitlines()[-1])
     assert sum(n > 0 for n in after.values()) >= 6  # the QP, cost, model, plan and filter kernels ran
     assert {k: n for k, n in after.items() if n != before.get(k, 0)} == {}
+
+
+def _fast_entrant_solves(paths, net_file, monkeypatch, desired: list[float | None]) -> list[int]:
+    """The control steps at which a vehicle alone, entering at 13 m/s (above the model's v_max of
+    10 m/s) and driving its plan, solves; ``desired[n]`` [m/s] its desired speed at step n."""
+    c = _nash_controller(paths, net_file)
+    steps, now = [], [0]
+    _watch_solo_solves(monkeypatch, lambda problem, result: steps.append(now[0]))
+    s, v = paths[LANE].s_stop - 120.0, 13.0
+    for n, want in enumerate(desired):
+        now[0] = n
+        world = _world(paths, 0.1 * n, [("fast", LANE, s, v)])
+        world = dataclasses.replace(world, desired_speed=np.array([np.nan if want is None else want]))
+        c.decide(world, time.perf_counter() + 10.0)
+        plan = c.memory.plans["fast"]
+        s, v = float(plan.positions[1]), float(plan.speeds[1])
+    assert v > 10.0  # still above v_max: its plan slows it down over the horizon
+    return steps
+
+
+def test_a_vehicle_entering_above_its_v_max_keeps_its_plan_until_v_max_changes(paths, net_file, monkeypatch):
+    """A plan that starts above v_max (the solver's cap is then the start speed, speed_cap) is
+    kept like any other while it never speeds up and v_max stays the one it was solved for; a
+    lower v_max (a lane limit, a desired speed) is a new problem and is solved at once."""
+    kept = _fast_entrant_solves(paths, net_file, monkeypatch, [None] * 7)
+    assert kept == [0, 5]  # free_resolve_steps (5) is due at step 5, not before
+    lowered = _fast_entrant_solves(paths, net_file, monkeypatch, [None, None, 8.0, 8.0, 8.0])
+    # solved again when v_max drops to 8 m/s (its real-time SQP may go on at the next step)
+    assert lowered[:2] == [0, 2]

@@ -31,7 +31,7 @@ from intersection_cosim.control.base import World
 from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.game.players import prediction_moved
 from intersection_cosim.control.game.settings import PolicySettings
-from intersection_cosim.games.problem import GameResult, Plan, Problem
+from intersection_cosim.games.problem import GameResult, Plan, Problem, keeps_speed_cap
 
 
 class _LastGame(NamedTuple):
@@ -39,6 +39,7 @@ class _LastGame(NamedTuple):
     combo: tuple[str, str]  # exit lanes solved for
     interactions: tuple  # the solved Problem's interactions
     leaders: tuple  # each player's leader prediction (s [m], v [m/s]) outside the game, or None
+    v_max: tuple  # [m/s] each player's speed cap v_max solved for (the model's where it has none)
 
 
 class GameReuse:
@@ -60,7 +61,8 @@ class GameReuse:
             self._last.pop(key, None)
             return
         problem = problems[choice]
-        self._last[key] = _LastGame(0, choice, problem.interactions, tuple(p.leader for p in problem.players))
+        self._last[key] = _LastGame(0, choice, problem.interactions, tuple(p.leader for p in problem.players),
+                                    tuple(self._v_max(p) for p in problem.players))
 
     def kept(self, world: World, a: int, b: int, problems: dict, held_before: frozenset[str]) -> tuple | None:
         """The pair's last equilibrium, shifted and restarted from the measured states, as (plans,
@@ -74,8 +76,8 @@ class GameReuse:
                 or any(p.crossers for p in problem.players) or key[0] in held_before or key[1] in held_before):
             return None
         plans = self.memory.warm_start(GameKey(*key, *last.combo), world.time)
-        if plans is None or not all(self._on_plan(world, k, plan, pl) for k, plan, pl in
-                                    zip((a, b), plans, problem.players)):
+        if plans is None or not all(self._on_plan(world, k, plan, pl, then) for k, plan, pl, then in
+                                    zip((a, b), plans, problem.players, last.v_max)):
             return None
         if not self._apart(plans, problem.interactions):
             return None
@@ -97,12 +99,16 @@ class GameReuse:
                 return False
         return True
 
-    def _on_plan(self, world: World, k: int, plan: Plan, player) -> bool:
-        """Whether vehicle k is where ``plan`` (shifted) puts it and the plan keeps its speed cap."""
-        v_cap = player.v_max if player.v_max is not None else self.v_max  # [m/s]
+    def _v_max(self, player) -> float:
+        """[m/s] ``player``'s v_max, the model's where it has none."""
+        return player.v_max if player.v_max is not None else self.v_max
+
+    def _on_plan(self, world: World, k: int, plan: Plan, player, v_max_then: float) -> bool:
+        """Whether vehicle k is where ``plan`` (shifted) puts it and the plan keeps its speed cap
+        (``v_max_then`` [m/s]: the cap it was solved for, games.problem.keeps_speed_cap)."""
         return (abs(plan.speeds[0] - float(world.v[k])) <= self.policy.solo_speed_tol
                 and abs(plan.positions[0] - float(world.s[k])) <= self.policy.solo_position_tol
-                and float(plan.speeds.max()) <= v_cap + 1e-6)
+                and keeps_speed_cap(plan, self._v_max(player), v_max_then))
 
 
 def arrival(plan: Plan, s_point: float) -> float:

@@ -26,7 +26,7 @@ from intersection_cosim.control.game.plan_memory import PlanMemory, SoloKey
 from intersection_cosim.control.game.players import player, prediction_moved
 from intersection_cosim.control.game.relations import Relations
 from intersection_cosim.games.solo_batch import solo_responses
-from intersection_cosim.games.problem import Plan, Player, Problem, safe_plan
+from intersection_cosim.games.problem import Plan, Player, Problem, keeps_speed_cap, safe_plan
 from intersection_cosim.control.game.settings import GameControllerSettings
 from intersection_cosim.games.settings import GameSettings
 from intersection_cosim.models.settings import ModelSettings
@@ -45,6 +45,7 @@ class _LastSolve(NamedTuple):
     age: int  # control steps since the solve
     option: str  # exit lane solved for
     leader: tuple | None  # the leader prediction (s [m], v [m/s]) the plan answered
+    v_max: float  # [m/s] the speed cap v_max solved for (the player's, else the model's)
 
 
 class SoloPlanner:
@@ -157,7 +158,7 @@ class SoloPlanner:
             # only the intent the filter checks)
             self.forget(vid)
         else:
-            self._last[vid] = _LastSolve(0, option, chosen.leader)
+            self._last[vid] = _LastSolve(0, option, chosen.leader, self._v_max(chosen))
         return result.plans[0]
 
     def reusable(self, world: World, k: int, option: str, player_now: Player,
@@ -183,17 +184,20 @@ class SoloPlanner:
                 or self.memory.options.get(vid) != option or (last.leader is None) != (player_now.leader is None)):
             return None
         plan = self.memory.shifted(plan)
-        v_cap = player_now.v_max if player_now.v_max is not None else self.model.v_max  # [m/s]
         off_plan = vid not in held_before and (
             abs(plan.speeds[0] - float(world.v[k])) > self.policy.solo_speed_tol
             or abs(plan.positions[0] - float(world.s[k])) > self.policy.solo_position_tol)
-        if off_plan or plan.speeds.max() > v_cap + 1e-6:
+        if off_plan or not keeps_speed_cap(plan, self._v_max(player_now), last.v_max):
             return None
         if player_now.leader is not None and self._leader_moved(plan, last, player_now.leader,
                                                                  player_now.leader_length):
             return None
-        self._last[vid] = _LastSolve(last.age + 1, option, last.leader)
+        self._last[vid] = last._replace(age=last.age + 1)
         return self.memory.anchored(world, k)  # the shifted plan above, from the measured state
+
+    def _v_max(self, player: Player) -> float:
+        """[m/s] ``player``'s v_max, the model's where it has none."""
+        return player.v_max if player.v_max is not None else self.model.v_max
 
     def _leader_moved(self, plan: Plan, last: _LastSolve, leader_now: tuple, length: float | None = None) -> bool:
         """Whether the leader's prediction moved since the solve where it matters to ``plan``
