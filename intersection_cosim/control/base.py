@@ -77,23 +77,43 @@ class World:
 
     def subset(self, keep: list[int]) -> "World":
         """The World of the vehicles at indices ``keep`` (in that order): every per-vehicle array
-        and list indexed, every dict keyed by vehicle id filtered, anything else (``time``, a dict
-        keyed by lane such as ``exit_free``) kept whole. Generic over the fields, so a field added
-        to World is split with the vehicles without its users knowing it."""
-        everyone = set(self.ids)
-        n, ids = len(self.ids), {self.ids[k] for k in keep}
-        idx = np.asarray(keep, dtype=np.intp)
+        and list indexed, every dict keyed by vehicle id filtered (in its own order), anything
+        else (``time``, a dict keyed by lane such as ``exit_free``) kept whole. Generic over the
+        fields, so a field added to World is split with the vehicles without its users knowing it."""
+        return self.subsets([keep])[0]
 
-        def part(value):
+    def subsets(self, keeps: list[list[int]]) -> list["World"]:
+        """:meth:`subset` of each index list of ``keeps``; which fields are per vehicle is worked
+        out once, so that splitting a city's World by junction costs each part its own size."""
+        n, everyone = len(self.ids), set(self.ids)
+        split = []  # (field name, kind, value)
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
             if isinstance(value, np.ndarray) and value.ndim >= 1 and len(value) == n:
-                return value[idx]
-            if isinstance(value, list) and len(value) == n:
-                return [value[k] for k in keep]
-            if isinstance(value, dict) and value.keys() <= everyone:
-                return {vid: v for vid, v in value.items() if vid in ids}
-            return value
-
-        return dataclasses.replace(self, **{f.name: part(getattr(self, f.name)) for f in dataclasses.fields(self)})
+                split.append((f.name, "array", value))
+            elif isinstance(value, list) and len(value) == n:
+                split.append((f.name, "list", value))
+            elif isinstance(value, dict) and value.keys() <= everyone:
+                items = list(value.items())
+                split.append((f.name, "dict", (items, {vid: i for i, (vid, _) in enumerate(items)})))
+            else:
+                split.append((f.name, "whole", value))
+        parts = []
+        for keep in keeps:
+            idx, fields = np.asarray(keep, dtype=np.intp), {}
+            for name, kind, value in split:
+                if kind == "array":
+                    fields[name] = value[idx]
+                elif kind == "list":
+                    fields[name] = [value[k] for k in keep]
+                elif kind == "dict":
+                    items, where = value
+                    fields[name] = dict(items[i] for i in sorted(
+                        {where[vid] for vid in (self.ids[k] for k in keep) if vid in where}))
+                else:
+                    fields[name] = value
+            parts.append(dataclasses.replace(self, **fields))
+        return parts
 
     def is_human(self, k: int) -> bool:
         """Whether vehicle k is a human driver (observed and predicted, never commanded)."""

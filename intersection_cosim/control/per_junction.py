@@ -29,10 +29,14 @@ def sub_world(world: World, keep: list[int], guests: list[tuple[int, Guest]] = (
     other junction's path, flagged ``World.guest``; ``world`` itself if all and no guest."""
     if len(keep) == len(world) and not guests and not world.guests:
         return world
-    part = world.subset([*keep, *(k for k, _ in guests)])
+    return _with_guests(world.subset([*keep, *(k for k, _ in guests)]), len(keep), guests)
+
+
+def _with_guests(part: World, n: int, guests: list[tuple[int, Guest]]) -> World:
+    """``part`` (its first ``n`` rows a junction's own vehicles, then one row per guest) with the
+    guest rows moved onto the other junction's path and flagged (:func:`sub_world`)."""
     if not guests:
         return dataclasses.replace(part, guests=())
-    n = len(keep)
     path_ids, s, role = list(part.path_ids), part.s.copy(), list(part.role)
     exits = dict(part.exit_choices)
     for i, (_, g) in enumerate(guests, start=n):
@@ -147,8 +151,10 @@ class PerJunction:
             for g in world.guests:
                 if g.vehicle in index:
                     guests.setdefault(self._junction_of[g.path], []).append((index[g.vehicle], g))
-        return {j: sub_world(world, keep.get(j, []), guests.get(j, [])) for j in self.parts
-                if j in keep or j in guests}
+        occupied = [j for j in self.parts if j in keep or j in guests]
+        rows = [[*keep.get(j, []), *(k for k, _ in guests.get(j, []))] for j in occupied]
+        return {j: _with_guests(part, len(keep.get(j, [])), guests.get(j, []))
+                for j, part in zip(occupied, world.subsets(rows))}
 
     def decide(self, world: World, deadline: float) -> Decisions:
         worlds = self.split(world)

@@ -125,3 +125,21 @@ def test_network_scheduler_skips_a_junction_only_on_its_second_empty_step_in_a_r
         [("gneJ10", False), ("gneJ11", True), ("gneJ12", True)],
         [("gneJ10", False), ("gneJ11", False), ("gneJ12", True)]]
     assert [step[:3] for step in skipping] == [step[:3] for step in calling]
+
+
+def test_a_world_split_in_parts_keeps_each_vehicles_values_and_each_dicts_order(paths):
+    """World.subsets: arrays and lists by index, a dict keyed by vehicle in its own order (not the
+    order of the indices), a dict keyed by anything else (exit_free, by lane) whole."""
+    import dataclasses
+
+    pid = next(iter(paths))
+    world = make_world(paths, 1.0, [(f"v{i}", pid, 10.0 + i, float(i)) for i in range(4)])
+    world = dataclasses.replace(world, exit_choices={"v3": ("c",), "v0": ("a",), "v2": ("b",)},
+                                exit_free={"lane_x": (5.0, 1.0)})
+    first, second, none = world.subsets([[2, 0, 3], [1], []])
+    assert first.ids == ["v2", "v0", "v3"] and list(first.v) == [2.0, 0.0, 3.0]
+    assert list(first.exit_choices) == ["v3", "v0", "v2"]  # the dict's order, not the indices'
+    assert second.ids == ["v1"] and second.exit_choices == {} and second.s.tolist() == [11.0]
+    assert none.ids == [] and len(none.v) == 0 and none.exit_choices == {}
+    assert first.exit_free == second.exit_free == {"lane_x": (5.0, 1.0)}
+    assert world.subset([3, 1]).ids == ["v3", "v1"] and len(world.ids) == 4  # the whole World untouched
