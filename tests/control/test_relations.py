@@ -71,3 +71,18 @@ def test_a_vehicle_chooses_among_exit_lanes_only_near_its_stop_line(paths, movem
         assert rel.rows.option == expected
         assert rel.rows.path == tuple(movements.sibling(pid, o) for o in expected)
         assert [rel.row_of[(0, o)] for o in expected] == list(range(len(expected)))
+
+
+def test_a_vehicle_alone_has_no_leader_and_no_pair_in_the_shape_the_pairs_of_two_have(paths, movements,
+                                                                                     conflict_table):
+    """One vehicle, its two exit-lane rows: no pair (the shortcut for a junction holding one
+    vehicle), with the columns, dtypes and shapes of the pairs of two vehicles that cleared."""
+    t = conflict_table
+    alone = step_relations(make_world(paths, 0.0, [("L", LEFT, 20.0, 8.0)]), {0}, movements, t, MODEL, True, {},
+                           RANGE)
+    gone = -(t.zone_out[t.index[LEFT], t.index[STRAIGHT]] - t.s_a[t.index[LEFT], t.index[STRAIGHT]]) - 0.1
+    cleared = step_relations(_crossing_world(paths, t, gone), {0, 1}, movements, t, MODEL, True, {}, RANGE).pairs
+    assert alone.leaders == {} and len(alone.pairs) == 0 and alone.lateral == ()
+    for name in ("ri", "rj", "cross", "s_i", "s_j", "live", "play", "zone_i", "zone_j", "human", "human_j"):
+        mine, theirs = getattr(alone.pairs, name), getattr(cleared, name)
+        assert (mine.dtype, mine.shape) == (theirs.dtype, theirs.shape), name

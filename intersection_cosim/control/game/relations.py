@@ -97,6 +97,14 @@ class LateralPairs:
                        (float(self.zone_j[m, 0]), float(self.zone_j[m, 1])))
 
 
+_NONE_F = np.zeros(0)
+_NONE_B = np.zeros(0, bool)
+NO_PAIRS = LateralPairs(np.zeros(0, np.intp), np.zeros(0, np.intp), _NONE_B, _NONE_F, _NONE_F, _NONE_B, _NONE_B,
+                        np.zeros((0, 2)), np.zeros((0, 2)), _NONE_B, _NONE_B)  # the step has no lateral pair
+for _a in (_NONE_F, _NONE_B, *NO_PAIRS.__dict__.values()):
+    _a.setflags(write=False)
+
+
 @dataclass(frozen=True)
 class Relations:
     """Everything of one step that depends on the vehicles' positions relative to each other."""
@@ -222,6 +230,8 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     """
     i, j = all_pairs(len(rows))
     keep = rows.vehicle[i] != rows.vehicle[j]
+    if not keep.any():  # one vehicle (most junctions of a city, most steps): no pair to relate
+        return {}, NO_PAIRS
     k_of, pidx = rows.vehicle, rows.pidx
     risk = event_trigger(table, pidx, world.s[k_of], world.v[k_of], world.kappa[k_of], model,
                          pairs=(i[keep], j[keep]))
