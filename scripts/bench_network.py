@@ -23,10 +23,11 @@ ssm = false``: an output device, not the simulation), alternating controller and
   (the anytime schedule cuts a step's iterations), the decisions depend on the machine's load;
   ``--budget-ms 2000`` makes them the same run to run (behaviour_fingerprint.py's budget).
 
-A table goes to stderr; the last line of stdout is one JSON object.
+A table goes to stderr; the last line of stdout is one JSON object; with ``--report DIR`` the table
+also goes to DIR/report.md (the results page "speed" embeds it) and the JSON to DIR/bench_network.json.
 
     python scripts/bench_network.py [SCENARIO.toml ...] [--controller nash] [--repeats 1]
-        [--duration S] [--drain S] [--workers 2] [--budget-ms MS]
+        [--duration S] [--drain S] [--workers 2] [--budget-ms MS] [--report DIR]
 """
 
 from __future__ import annotations
@@ -135,6 +136,32 @@ def bench(scenario: Path, args, tmp: Path) -> dict:
             "arrived": [ctrl[-1]["arrived"], base[-1]["arrived"]]}
 
 
+def write_report(folder: Path, result: dict) -> Path:
+    """``folder``/report.md: one row per scenario (the results page embeds it) and the JSON."""
+    folder.mkdir(parents=True, exist_ok=True)
+    ctrl, w = result["controller"], result["workers"]
+    lines = ["# A network under the game controller against SUMO alone", "",
+             f"Each scenario under `{ctrl}` and under `{BASELINE}`, each run in a fresh process, SUMO's SSM device "
+             f"off, alternated ({result['repeats']} run(s) each). Ratios are medians of the controller's runs over "
+             "SUMO's: the whole run's wall time, its CPU time, and the closed loop's wall time alone. The "
+             "controller's step is its compute summed over the junctions; skipped: the share of junction-steps "
+             f"with nothing to decide; parallel: the ideal speed-up of the junctions' compute over {w} workers "
+             "(a bound from the measured per-junction times; the junctions run one after another).", "",
+             "| scenario | junctions | controller [s] | SUMO [s] | wall ratio | CPU ratio | loop ratio | "
+             "step median [ms] | step p95 [ms] | skipped | parallel | collisions (ctrl / SUMO) | arrived (ctrl / SUMO) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in result["results"]:
+        lines.append(f"| {Path(r['scenario']).stem} | {r['junctions']} | {r['controller_wall_s']:.1f} | "
+                     f"{r['sumo_wall_s']:.1f} | {r['wall_ratio']:.2f} | {r['cpu_ratio']:.2f} | {r['loop_ratio']:.2f} | "
+                     f"{r['step_ms_median']:.2f} | {r['step_ms_p95']:.2f} | {r['skipped_share']:.1%} | "
+                     f"{r['parallel_ideal']:.2f} | {r['collisions'][0]} / {r['collisions'][1]} | "
+                     f"{r['arrived'][0]} / {r['arrived'][1]} |")
+    path = folder / "report.md"
+    path.write_text("\n".join(lines) + "\n")
+    (folder / "bench_network.json").write_text(json.dumps(result))
+    return path
+
+
 def main(argv: list[str] | None = None) -> dict | None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("scenarios", nargs="*", type=Path, help="scenario files (default: grid_high, corridor_medium)")
@@ -145,6 +172,7 @@ def main(argv: list[str] | None = None) -> dict | None:
     ap.add_argument("--workers", type=int, default=2, help="workers of the ideal parallel split")
     ap.add_argument("--budget-ms", type=float, help="[ms] step budget per junction (default: the scenario's; "
                     "a wall-clock budget that binds makes the decisions depend on the machine's load)")
+    ap.add_argument("--report", type=Path, help="folder to write report.md and bench_network.json into")
     ap.add_argument("--one", type=Path, help=argparse.SUPPRESS)
     ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -164,6 +192,8 @@ def main(argv: list[str] | None = None) -> dict | None:
     result = {"benchmark": "bench_network", "controller": args.controller, "repeats": args.repeats,
               "workers": args.workers, "results": results}
     print(json.dumps(result))
+    if args.report is not None:
+        write_report(args.report, result)
     return result
 
 

@@ -24,13 +24,15 @@ denominator this script used before December 2026. The no-ETM run of the 80-vehi
 growth from the previous no-ETM run) exceeds ``--max-noetm-s`` its measured window after the
 warmup is shortened (never below ``--min-noetm-window`` s), which the JSON's ``note`` says.
 
-A table goes to stderr; the last line of stdout is one JSON object.
+A table goes to stderr; the last line of stdout is one JSON object; with ``--report DIR`` the
+event-trigger table also goes to DIR/report.md (the results page "speed" embeds it) and the JSON
+to DIR/bench_scale.json.
 
 SUMO's step in a jam is mostly its SSM device, which every run records by default; with
 ``--no-ssm`` the runs go without it (the controller's steps are the same) and the ratio is
 against SUMO's bare step.
 
-    python scripts/bench_scale.py [--duration 50] [--warmup 30] [--max-noetm-s 180] [--no-ssm]
+    python scripts/bench_scale.py [--duration 50] [--warmup 30] [--max-noetm-s 180] [--no-ssm] [--report DIR]
 """
 
 from __future__ import annotations
@@ -217,6 +219,31 @@ def print_table(bins: dict, sumo_med: dict, exponents: dict) -> None:
           f"no-ETM k={exponents['noetm']}", file=sys.stderr)
 
 
+def write_report(folder: Path, result: dict) -> Path:
+    """``folder``/report.md: the ETM bins as a table (the results page embeds it) and the JSON."""
+    folder.mkdir(parents=True, exist_ok=True)
+    sumo = result["sumo_step_ms_median"]["etm"]
+    lines = ["# The single junction's step against its vehicle count", "",
+             f"The game controller (`nash`, event trigger on) on the generated four-arm "
+             f"intersection at four demand levels, SUMO's SSM device {'on' if result['ssm'] else 'off'}. Per "
+             "level the control steps after the warmup: the vehicles in the World (median), the controller's "
+             "step (median and p95) and its ratio to SUMO's own step in the same runs (median).", "",
+             "| level | steps | vehicles | step median [ms] | step p95 [ms] | x SUMO step |", "|---|---|---|---|---|---|"]
+    for r in result["bins"]["etm"]:
+        if r["steps"]:
+            lines.append(f"| {r['target']} | {r['steps']} | {r['n_median']:.0f} | {r['compute_ms_median']:.2f} | "
+                         f"{r['compute_ms_p95']:.2f} | {r['ratio_to_sumo']} |")
+    lines += ["", f"SUMO's step (median after the warmup, event-trigger runs): {sumo} ms. Growth exponent of "
+              f"the step with the vehicle count (compute ~ n^k): k = {result['exponent_etm']} with the event "
+              f"trigger, {result['exponent_noetm']} without it.", ""]
+    if result.get("note"):
+        lines += [f"Note: {result['note']}.", ""]
+    path = folder / "report.md"
+    path.write_text("\n".join(lines))
+    (folder / "bench_scale.json").write_text(json.dumps(result))
+    return path
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--duration", type=float, default=50.0, help="[s] simulated time per run")
@@ -230,6 +257,7 @@ def main() -> int:
                          "predicted wall time exceeds this")
     ap.add_argument("--min-noetm-window", type=float, default=2.0,
                     help="[s] shortest measured window after the warmup of the last no-ETM run")
+    ap.add_argument("--report", type=Path, help="folder to write report.md and bench_scale.json into")
     args = ap.parse_args()
 
     notes: list[str] = []
@@ -259,6 +287,8 @@ def main() -> int:
         "note": "; ".join(notes) if notes else None,
     }
     print(json.dumps(result))
+    if args.report is not None:
+        write_report(args.report, result)
     return 0
 
 

@@ -100,6 +100,14 @@ PAGES = (
           _compare("demand_balanced_medium_attack demand_balanced_medium_attack_unchecked", "nash",
                    "--seeds 42 --workers 2")),
          (_compare("demand_balanced_low", "nash", QUICK + " --latency 0,0.2 --loss 0.2"),)),
+    Page("speed", "Speed",
+         "What the game controller costs against SUMO alone: the shipped grid (nine junctions) and corridor "
+         "(three) under Nash and under SUMO's own drivers, wall-time ratios, the controller's step and the "
+         "junction-steps skipped; and the single junction's step against its vehicle count, as a multiple "
+         "of SUMO's bare step in the same runs.",
+         ("python scripts/bench_network.py --report {out}", "python scripts/bench_scale.py --no-ssm --report {out}"),
+         ("python scripts/bench_network.py scenarios/corridor_low.toml --duration 20 --drain 0 --report {out}",
+          "python scripts/bench_scale.py --no-ssm --duration 35 --warmup 25 --max-noetm-s 10 --report {out}")),
 )
 
 

@@ -23,3 +23,17 @@ def test_sumo_steps_are_taken_from_the_controllers_window(tmp_path):
     assert len(r["sumo_ms_all"]) == 80 and len(r["sumo_ms"]) == 40
     assert r["sumo_ms"] == r["sumo_ms_all"][40:]
     assert min(r["sumo_ms"]) > 0.0
+
+
+def test_the_report_lists_each_populated_level_with_its_ratio_to_sumo(tmp_path):
+    bs = _bench()
+    level = {"target": 10, "steps": 100, "n_median": 10.0, "compute_ms_median": 2.5, "compute_ms_p95": 5.0,
+             "ratio_to_sumo": 9.1}
+    result = {"ssm": False, "sumo_step_ms_median": {"etm": 0.8, "noetm": 0.9}, "exponent_etm": 1.05,
+              "exponent_noetm": 1.9, "note": None,
+              "bins": {"etm": [level, {**level, "target": 80, "n_median": 75.0, "ratio_to_sumo": 9.7},
+                               {**level, "target": 160, "steps": 0}], "noetm": []}}
+    text = bs.write_report(tmp_path, result).read_text()
+    rows = [line for line in text.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    assert [r.split(" | ")[0] for r in rows] == ["| 10", "| 80"]  # the empty level left out
+    assert rows[1].endswith("| 9.7 |") and "k = 1.05" in text and "0.8 ms" in text and "SSM device off" in text
