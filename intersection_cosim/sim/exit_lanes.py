@@ -8,18 +8,20 @@ from __future__ import annotations
 
 import libsumo
 
-from intersection_cosim.sim.vehicles import VehicleInfo
 
-
-def switch_exit_lane(sim, vid: str, lane: str, pid: str, info: VehicleInfo) -> None:
-    """Put a vehicle that entered the junction on the internal lane of its chosen connection.
+def switch_exit_lane(sim, vid: str, lane: str, pid: str, exit_lane: str) -> None:
+    """Put a vehicle that entered the junction on path ``pid`` on the internal lane of the
+    connection to its chosen ``exit_lane``; where its approach lane has no such connection it
+    drives on along ``pid``.
 
     The internal lanes of one approach lane's connections start at the same point, so the
     move changes only which connection the vehicle follows (a SUMO-documented use of moveTo).
     """
-    target_id = sim.movements.siblings.get((pid, info.exit_lane))
+    target_id = sim.movements.siblings.get((pid, exit_lane))
     if target_id is None:
+        sim.current_path[vid] = pid
         return
+    info = sim.vehicles[vid]
     old, target = sim.paths[pid], sim.paths[target_id]
     s = sim.arc(old, lane, sim.api.vehicle.getLanePosition(vid))
     new_lane, new_pos = sim.lane_position(target, min(s, target.s_exit - 0.01))

@@ -229,8 +229,9 @@ class SumoSimulation:
         role = self.movements.role(lane)
         if role == PASSING:
             pid = self._lane_to_paths[lane][0]
-            if info.exit_lane is not None and self.paths[pid].exit_lane != info.exit_lane and info.driver != "human":
-                switch_exit_lane(self, vid, lane, pid, info)
+            exit_lane = info.exit_lane_at(path_junction(self.movements, pid))
+            if exit_lane is not None and self.paths[pid].exit_lane != exit_lane and info.driver != "human":
+                switch_exit_lane(self, vid, lane, pid, exit_lane)
                 return
             self.current_path[vid] = pid
             return
@@ -257,8 +258,9 @@ class SumoSimulation:
         edge: its chosen exit lane if it has one there, else the movement's preferred one."""
         for pid in self._approach_paths.get(lane, ()):
             if self.paths[pid].exit_arm in info.route:
-                if info.exit_lane is not None:
-                    return self.movements.siblings.get((pid, info.exit_lane), pid)
+                exit_lane = info.exit_lane_at(path_junction(self.movements, pid))
+                if exit_lane is not None:
+                    return self.movements.siblings.get((pid, exit_lane), pid)
                 return self.movements.sibling(pid, self.movements.preferred(pid))
         return None
 
@@ -353,8 +355,9 @@ class SumoSimulation:
             self.commands[vid] = float(accel)
             self.owner[vid] = junction
         for vid, lane in decisions.exit_lane.items():
-            if vid in self.vehicles and self.vehicles[vid].driver != "human":
-                self.vehicles[vid].exit_lane = lane
+            info, pid = self.vehicles.get(vid), self.current_path.get(vid)
+            if info is not None and info.driver != "human" and pid is not None:
+                info.exit_lane, info.exit_junction = lane, path_junction(self.movements, pid)
         set_signal_states(self.api, decisions.signals)
         for vid in decisions.release:
             if vid in self.owner and decisions.owner.get(vid, self.owner[vid]) == self.owner[vid]:

@@ -18,6 +18,16 @@ class VehicleInfo:
     controlled: bool
     exit_lane: str | None = None  # exit lane to enforce at the junction entry (None: SUMO's)
     exit_fixed: bool = False  # the scenario fixes the exit lane: the controller may not choose
+    exit_junction: str | None = None  # the managed junction whose controller chose exit_lane (None:
+    #                                   every junction, a scenario's fixed exit); see exit_lane_at
+
+    def exit_lane_at(self, junction: str) -> str | None:
+        """The exit lane to enforce at managed junction ``junction``: the one chosen for that
+        junction (or fixed by the scenario), else None. A choice made at one junction says
+        nothing of the next one's lanes, so it is not carried over."""
+        if self.exit_junction is None or self.exit_junction == junction:
+            return self.exit_lane
+        return None
     start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
     desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
     route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)

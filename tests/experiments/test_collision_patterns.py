@@ -420,3 +420,60 @@ def test_an_av_turning_across_a_bicycle_lane_lets_the_cyclist_on_it_pass(tmp_pat
     assert av["speed"].min() < 1.0  # [m/s] it waited for the cyclist (inside A, short of the bicycle lane)
     off, _, _ = _right_hook(tmp_path / "off", crossing=False)
     assert off["collisions"]["sumo_records_commanded"] > 0  # the scene is a threat: without the sense it collides
+
+
+def _narrowing(folder: Path) -> Path:
+    """A at x = 0, B at x = 10 on the eastbound road, so close that the link AB between their
+    boxes is 0.2 m long (as between some of InTAS Ingolstadt's junctions): WA (two lanes; lane 1
+    onto either lane of AB, lane 0 onto AB's lane 0), AB (two lanes, both onto BE's one lane),
+    BE; a southbound street through each. Priority junctions."""
+    (folder / "n.nod.xml").write_text(
+        '<nodes><node id="A" x="0" y="0" type="priority"/><node id="B" x="10" y="0" type="priority"/>'
+        '<node id="W" x="-200" y="0"/><node id="E" x="160" y="0"/><node id="NA" x="0" y="150"/>'
+        '<node id="SA" x="0" y="-150"/><node id="NB" x="10" y="150"/><node id="SB" x="10" y="-150"/></nodes>')
+    (folder / "n.edg.xml").write_text("<edges>" + "".join(
+        f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="13.89"/>'
+        for e, a, b, n in (("WA", "W", "A", 2), ("AB", "A", "B", 2), ("BE", "B", "E", 1), ("NAA", "NA", "A", 1),
+                           ("ASA", "A", "SA", 1), ("NBB", "NB", "B", 1), ("BSB", "B", "SB", 1))) + "</edges>")
+    (folder / "n.con.xml").write_text("<connections>" + "".join(
+        f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
+        for a, b, i, j in (("WA", "AB", 0, 0), ("WA", "AB", 1, 0), ("WA", "AB", 1, 1), ("AB", "BE", 0, 0),
+                           ("AB", "BE", 1, 0), ("NAA", "ASA", 0, 0), ("NBB", "BSB", 0, 0))) + "</connections>")
+    net = folder / "narrowing.net.xml"
+    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "n.nod.xml", "-e", "n.edg.xml", "-x", "n.con.xml",
+                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
+    return net
+
+
+def test_an_exit_lane_chosen_at_one_junction_is_not_enforced_at_the_next(tmp_path, monkeypatch):
+    """AVs from WA's lane 1 choose their lane of AB at A (lane 1, the straight-on preference);
+    at B both of AB's lanes lead onto BE's one lane, so that choice names no lane of B. A SUMO
+    step takes a vehicle from A's box over the 0.2 m link straight into B's. Every
+    SUMO step a vehicle on a managed path is on a lane of it (in B's box: B's path, not A's),
+    the AVs in B's box are B's, and all arrive without a collision. (Before, the choice made at
+    A was enforced at B, found no connection there and left the vehicle on A's path: A went on
+    commanding it through B's box, at an arc length read off B's internal lane.)"""
+    net = _narrowing(tmp_path)
+    off_path, in_b = [], {}
+    advance = SumoSimulation.advance
+
+    def checked(sim):
+        advance(sim)
+        for vid, pid in sim.current_path.items():
+            lane = sim.states[vid][libsumo.VAR_LANE_ID] if vid in sim.states else None
+            if lane is not None and lane not in sim.paths[pid].lanes:
+                off_path.append((round(sim.time, 2), vid, pid, lane))
+            if lane is not None and lane.startswith(":B_") and vid in sim.owner:
+                in_b.setdefault(vid, set()).add(sim.owner[vid])
+
+    monkeypatch.setattr(SumoSimulation, "advance", checked)
+    east = [(1.5 * i, f'<vehicle id="e{i}" type="car" depart="{1.5 * i:.1f}" departLane="1" departSpeed="10">'
+                      '<route edges="WA AB BE"/></vehicle>') for i in range(4)]
+    summary, traj, collisions = _run(tmp_path, net, _routes(tmp_path, east), 100.0)
+    assert _edge_length(net, "AB") < 0.5  # [m]
+    assert "WA_1>AB_1" in set(traj.loc[traj["lane"].str.startswith(":A_"), "path"])  # A chose AB's lane 1
+    assert off_path == [], f"vehicles off their path's lanes: {len(off_path)}, first {off_path[:3]}"
+    assert set(traj.loc[traj["lane"].str.startswith(":B_"), "path"]) == {"AB_1>BE_0"}  # B's path in B's box
+    assert in_b and all(owners == {"B"} for owners in in_b.values()), in_b
+    assert summary["counts"]["departed"] == summary["counts"]["arrived"] == 4
+    assert _records(collisions) == [], f"SUMO's collisions {_records(collisions)}"
