@@ -354,10 +354,13 @@ class SumoSimulation:
                 self.api.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)  # the controller's from now on
             self.commands[vid] = float(accel)
             self.owner[vid] = junction
-        for vid, lane in decisions.exit_lane.items():
+        for vid, lane in decisions.exit_lane.items():  # a choice for the junction whose path it is on
             info, pid = self.vehicles.get(vid), self.current_path.get(vid)
-            if info is not None and info.driver != "human" and pid is not None:
-                info.exit_lane, info.exit_junction = lane, path_junction(self.movements, pid)
+            if info is None or info.driver == "human" or pid is None:
+                continue
+            here = path_junction(self.movements, pid)
+            if decisions.owner.get(vid) in (None, here):  # not one of a junction it left (a late V2X command)
+                info.exit_lane, info.exit_junction = lane, here
         set_signal_states(self.api, decisions.signals)
         for vid in decisions.release:
             if vid in self.owner and decisions.owner.get(vid, self.owner[vid]) == self.owner[vid]:
