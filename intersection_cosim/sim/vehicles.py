@@ -20,6 +20,11 @@ class VehicleInfo:
     exit_fixed: bool = False  # the scenario fixes the exit lane: the controller may not choose
     exit_junction: str | None = None  # the managed junction whose controller chose exit_lane (None:
     #                                   every junction, a scenario's fixed exit); see exit_lane_at
+    start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
+    desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
+    route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)
+    driver: str = "av"  # [-] "av" or "human" (a human is never controlled: SUMO's model drives it)
+    vtype: str = "av"  # [-] its SUMO vType id (of the run's route file, or the user's own)
 
     def exit_lane_at(self, junction: str) -> str | None:
         """The exit lane to enforce at managed junction ``junction``: the one chosen for that
@@ -28,9 +33,3 @@ class VehicleInfo:
         if self.exit_junction is None or self.exit_junction == junction:
             return self.exit_lane
         return None
-    start_s: float | None = None  # [m] place here on insertion (vehicles that start in the junction)
-    desired_speed: float | None = None  # [m/s] its own max speed (also SUMO's, once it drives itself)
-    route: frozenset[str] = frozenset()  # edges of its route (to pick its movement at a managed junction)
-    driver: str = "av"  # [-] "av" or "human" (a human is never controlled: SUMO's model drives it)
-    vtype: str = "av"  # [-] its SUMO vType id (of the run's route file, or the user's own)
-
