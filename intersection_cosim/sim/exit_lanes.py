@@ -1,12 +1,28 @@
-"""Exit-lane switches inside a managed junction: a vehicle moved onto the internal lane of the
-connection to the exit lane its controller chose, and the end of such a vehicle's trip at the
-routes' arrival position (which SUMO forgets on the move). ``sim`` is the running
+"""Exit-lane choices and switches inside a managed junction: the choices a controller sends, each
+for its own junction; a vehicle moved onto the internal lane of the connection to the exit lane
+its controller chose, and the end of such a vehicle's trip at the routes' arrival position
+(which SUMO forgets on the move). ``sim`` is the running
 :class:`~intersection_cosim.sim.sumo.SumoSimulation`.
 """
 
 from __future__ import annotations
 
 import libsumo
+
+from intersection_cosim.network.by_junction import path_junction
+
+
+def take_exit_choices(sim, decisions) -> None:
+    """Record each exit lane of ``decisions`` (a Decisions) for the managed junction whose path the
+    vehicle is on (never a human's): taken only from that junction's controller, not from one the
+    vehicle has left (a choice late over V2X), and enforced only there (VehicleInfo.exit_lane_at)."""
+    for vid, lane in decisions.exit_lane.items():
+        info, pid = sim.vehicles.get(vid), sim.current_path.get(vid)
+        if info is None or info.driver == "human" or pid is None:
+            continue
+        here = path_junction(sim.movements, pid)
+        if decisions.owner.get(vid) in (None, here):
+            info.exit_lane, info.exit_junction = lane, here
 
 
 def switch_exit_lane(sim, vid: str, lane: str, pid: str, exit_lane: str) -> None:

@@ -30,7 +30,7 @@ from intersection_cosim.network.movements import PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.sim.backend import LIBSUMO, SumoBackend, sumo_version, traci_backend
 from intersection_cosim.sim.collisions import CollisionRecord, step_collisions
-from intersection_cosim.sim.exit_lanes import arrive_switched, switch_exit_lane
+from intersection_cosim.sim.exit_lanes import arrive_switched, switch_exit_lane, take_exit_choices
 from intersection_cosim.sim.lane_change_hold import LaneChangeHold
 from intersection_cosim.sim.onboard import OnboardGuard
 from intersection_cosim.sim.people import CrossingPeople
@@ -354,13 +354,7 @@ class SumoSimulation:
                 self.api.vehicle.setSpeedMode(vid, SPEED_MODE_CONTROLLED)  # the controller's from now on
             self.commands[vid] = float(accel)
             self.owner[vid] = junction
-        for vid, lane in decisions.exit_lane.items():  # a choice for the junction whose path it is on
-            info, pid = self.vehicles.get(vid), self.current_path.get(vid)
-            if info is None or info.driver == "human" or pid is None:
-                continue
-            here = path_junction(self.movements, pid)
-            if decisions.owner.get(vid) in (None, here):  # not one of a junction it left (a late V2X command)
-                info.exit_lane, info.exit_junction = lane, here
+        take_exit_choices(self, decisions)
         set_signal_states(self.api, decisions.signals)
         for vid in decisions.release:
             if vid in self.owner and decisions.owner.get(vid, self.owner[vid]) == self.owner[vid]:
