@@ -34,6 +34,23 @@ def test_the_guard_fires_only_past_its_limit_and_never_at_zero():
     assert end is not None and end.reason == "memory" and end.time == 3.5 and end.peak_gb > end.limit_gb
 
 
+def test_the_guard_reads_the_peak_once_per_interval_of_simulated_time(monkeypatch):
+    from intersection_cosim.experiments import memory_guard
+    peaks = iter([1.0, 1.0, 3.0, 3.0])  # [GB] successive reads: the process grows past 2 GB
+    reads = []
+
+    def fake_peak():
+        reads.append(1)
+        return next(peaks)
+
+    monkeypatch.setattr(memory_guard, "peak_memory_gb", fake_peak)
+    guard = MemoryGuard(2.0, interval=1.0)
+    ends = {round(0.1 * k, 1): guard.check(0.1 * k, None) for k in range(25)}  # 0.0 .. 2.4 s
+    assert len(reads) == 3  # at 0.0, 1.0 and 2.0 s: not at every control step
+    assert [t for t, end in ends.items() if end is not None] == [2.0]  # seen at the next read
+    assert ends[2.0].peak_gb == 3.0
+
+
 def test_a_run_over_its_memory_limit_ends_with_its_outputs_written(tmp_path):
     scn = load_scenario(SCENARIOS / "case1_A.toml")
     scn = dataclasses.replace(scn, scenario=dataclasses.replace(scn.scenario, memory_limit=0.001))
