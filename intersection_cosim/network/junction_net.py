@@ -5,7 +5,8 @@ into a :class:`~intersection_cosim.network.paths.MovementPath`: from lane -> the
 lane(s) SUMO built for the connection (an internal junction in the middle splits a connection into
 more than one) -> to lane, id ``"<from lane>><to lane>"``. The approach is extended upstream
 through *unique predecessors* (a lane with exactly one incoming lane whose only outgoing lane is
-this one; internal lanes of unmanaged junctions count) until it is ``control_range`` metres long,
+this one, or that only fans out into lanes of this one's edge; internal lanes of unmanaged
+junctions count) until it is ``control_range`` metres long,
 so short OSM edges still give the controller room to act. SUMO's own foe relation between the
 junction's links is recorded as a second opinion on the geometric conflicts
 (:func:`~intersection_cosim.network.conflicts.movement_conflicts`).
@@ -135,9 +136,37 @@ def _lane_length(lane) -> float:
     return geomhelper.polyLength([tuple(p[:2]) for p in lane.getShape()])
 
 
+def _edge_after(graph: _LaneGraph, lane: str) -> str | None:
+    """The normal edge a vehicle on ``lane`` reaches next (its own for a normal lane; through
+    internal lanes with one successor each), None where the way branches."""
+    seen = set()
+    while lane.startswith(":") and lane not in seen:
+        seen.add(lane)
+        nxt = graph.succ.get(lane, frozenset())
+        if len(nxt) != 1:
+            return None
+        (lane,) = nxt
+    return None if lane.startswith(":") else lane.rsplit("_", 1)[0]
+
+
+def _leads_only_to(graph: _LaneGraph, prev: str, cur: str) -> bool:
+    """Whether every vehicle on ``prev`` drives on to the edge ``cur`` leads to: ``cur`` is its
+    only successor, or it fans out into lanes of that one edge only (a lane split: one lane widening
+    to several, an unmanaged node with no other way), so ``prev`` belongs to the approach as
+    surely as a unique predecessor does."""
+    succ = graph.succ.get(prev, frozenset())
+    if succ == frozenset({cur}):
+        return True
+    target = _edge_after(graph, cur)
+    return target is not None and all(_edge_after(graph, nxt) == target for nxt in succ)
+
+
 def _upstream(net, graph: _LaneGraph, lane, control_range: float, vclass: str, blocked: frozenset) -> list:
     """Unique predecessors of ``lane``, furthest first, until the approach (them and ``lane``) is
-    ``control_range`` [m] long; never a lane in ``blocked`` (managed junctions' lanes) or seen twice."""
+    ``control_range`` [m] long; never a lane in ``blocked`` (managed junctions' lanes) or seen twice.
+    A predecessor that fans out into other lanes of the same edge (:func:`_leads_only_to`) counts:
+    without it the approach would end a few metres before a junction that follows a lane split,
+    and vehicles bound for it would first be seen too close to stop."""
     chain: list = []
     length = _lane_length(lane)  # [m]
     cur = lane.getID()
@@ -147,7 +176,7 @@ def _upstream(net, graph: _LaneGraph, lane, control_range: float, vclass: str, b
         if len(preds) != 1:
             break
         (prev,) = preds
-        if graph.succ.get(prev) != frozenset({cur}) or prev in seen or prev in blocked:
+        if not _leads_only_to(graph, prev, cur) or prev in seen or prev in blocked:
             break
         prev_lane = net.getLane(prev)
         if not prev_lane.allows(vclass):

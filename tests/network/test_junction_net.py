@@ -73,19 +73,36 @@ def test_roles_cover_the_approach_and_every_internal_lane(cross):
     assert cross.role("4o_0") == OUTSIDE and cross.role("1fi_0") == OUTSIDE
 
 
-def test_approach_extends_upstream_until_the_road_branches():
-    # 1si (137 m) is fed only by m1's internal lanes :m1_1_k, which 1fi_0 feeds along with two others:
-    # a 200 m control range takes the internal lane and stops at the branch.
+def test_approach_extends_upstream_through_a_lane_split():
+    # 1si (137 m) is fed only by m1's internal lanes :m1_1_k, which 1fi_0 feeds all three: a lane
+    # split (one lane widening into 1si's three). A 200 m control range takes the internal lane and
+    # 1fi_0 before it, so a vehicle bound for junction 0 is seen before the split, not after it.
     short, far = load_movements(CROSS, ("0",), 100.0), load_movements(CROSS, ("0",), 200.0)
     for k in range(3):
         pid = next(p for p in far.paths if p.startswith(f"1si_{k}>"))
         assert short.paths[pid].lanes[0] == f"1si_{k}" and short.paths[pid].stop_index == 1
-        assert far.paths[pid].lanes[:2] == (f":m1_1_{k}", f"1si_{k}") and far.paths[pid].stop_index == 2
-        assert far.roles[f":m1_1_{k}"] == READY
-        assert far.paths[pid].s_stop - short.paths[pid].s_stop == pytest.approx(far.paths[pid].lane_starts[1], abs=0.01)
-        assert 100.0 < far.paths[pid].s_stop < 200.0
+        assert far.paths[pid].lanes[:3] == ("1fi_0", f":m1_1_{k}", f"1si_{k}") and far.paths[pid].stop_index == 3
+        assert far.roles[f":m1_1_{k}"] == READY and far.roles["1fi_0"] == READY
+        assert far.paths[pid].s_stop - short.paths[pid].s_stop == pytest.approx(far.paths[pid].lane_starts[2], abs=0.01)
+        assert 150.0 < far.paths[pid].s_stop < 200.0
     a, b = far.paths["3si_0>2o_0"], far.paths["3si_0>4o_0"]  # one approach lane, one arc-length origin
     assert a.lanes[:a.stop_index] == b.lanes[:b.stop_index] and a.s_stop == b.s_stop
+
+
+def test_an_approach_takes_a_lane_split_but_stops_where_the_road_branches():
+    from intersection_cosim.network.junction_net import _LaneGraph, _leads_only_to
+
+    def graph(succ: dict[str, set[str]]) -> _LaneGraph:
+        pred: dict[str, set[str]] = {}
+        for lane, nxt in succ.items():
+            for n in nxt:
+                pred.setdefault(n, set()).add(lane)
+        return _LaneGraph({k: frozenset(v) for k, v in succ.items()}, {k: frozenset(v) for k, v in pred.items()})
+
+    split = graph({"a_0": {":n_0_0", ":n_0_1"}, ":n_0_0": {"b_0"}, ":n_0_1": {"b_1"}})
+    fork = graph({"a_0": {":n_0_0", ":n_1_0"}, ":n_0_0": {"b_0"}, ":n_1_0": {"c_0"}})
+    assert _leads_only_to(split, "a_0", ":n_0_1") and _leads_only_to(split, ":n_0_1", "b_1")
+    assert not _leads_only_to(fork, "a_0", ":n_0_0")  # some of a_0's vehicles turn off onto c
 
 
 def test_approach_extends_until_the_control_range():
