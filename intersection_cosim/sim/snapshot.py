@@ -71,11 +71,17 @@ def _offset(from_path, to_path, lane: str) -> float:
     return to_path.lane_starts[to_path.lanes.index(lane)] - from_path.lane_starts[from_path.lanes.index(lane)]
 
 
+GUEST_HOPS = 4  # [-] managed junctions ahead along a vehicle's route that may see it as a guest
+
+
 def guests_of(sim, vid: str, s: float) -> list[Guest]:
     """The views other managed junctions have of vehicle ``vid`` at arc length ``s`` [m] of its
-    current path P: the next junction's path Q that starts on P's exit lane (a link between the two)
-    when the vehicle, not yet on that lane, is within the control range of Q's stop line; and the
-    previous junction's path, while the vehicle is on the link it came over from it."""
+    current path P: each junction ahead on its route whose stop line is within the control range,
+    reached over links from P's exit lane (the next junction's path Q that starts on it, then the
+    path that starts on Q's exit lane, ...; up to ``GUEST_HOPS``), while the vehicle is not yet on
+    the link into it; and the previous junction's path, while the vehicle is on the link it came
+    over from it. A chain of boxes joined by links shorter than a stopping distance (a lane split
+    before a large junction) so shows the last box every vehicle bound for it in time to hold it."""
     if len(sim.movements.junctions) < 2:
         return []
     paths, pid = sim.paths, sim.current_path[vid]
@@ -84,12 +90,18 @@ def guests_of(sim, vid: str, s: float) -> list[Guest]:
     before = sim.previous_path.get(vid)
     if before is not None and lane == paths[before].lanes[-1] and lane in path.lanes:
         out.append(Guest(vid, before, _offset(path, paths[before], lane), OUTSIDE))
-    link = path.lanes[-1]
-    nxt = None if lane == link else sim.approach_path(link, vid)
-    if nxt is not None and path_junction(sim.movements, nxt) != path_junction(sim.movements, pid):
-        offset = _offset(path, paths[nxt], link)
-        if paths[nxt].s_stop - (s + offset) <= sim.control_range:
-            out.append(Guest(vid, nxt, offset, READY))
+    offset, seen = 0.0, {path_junction(sim.movements, pid)}  # offset [m]: arc length on ``path`` to P's
+    for _hop in range(GUEST_HOPS):
+        link = path.lanes[-1]
+        nxt = None if lane == link else sim.approach_path(link, vid)
+        if nxt is None or path_junction(sim.movements, nxt) in seen:
+            break
+        offset += _offset(path, paths[nxt], link)
+        if paths[nxt].s_stop - (s + offset) > sim.control_range:
+            break
+        out.append(Guest(vid, nxt, offset, READY))
+        seen.add(path_junction(sim.movements, nxt))
+        path = paths[nxt]
     return out
 
 
@@ -116,7 +128,9 @@ def world_snapshot(sim) -> World:
         arr["heading"][i] = math.radians(90.0 - st[libsumo.VAR_ANGLE])
         info = sim.vehicles.get(vid)
         arr["kappa"][i] = info.kappa if info else 0.5
-        arr["desired"][i] = info.desired_speed if info and info.desired_speed is not None else math.nan
+        desired = info.desired_at(path.speed_limits[path.stop_index - 1]) if info and path.speed_limits else (
+            info.desired_speed if info else None)  # [m/s]
+        arr["desired"][i] = desired if desired is not None else math.nan
         human[i] = info is not None and info.driver == "human"
         path_ids.append(pid)
         lanes.append(lane)
