@@ -87,6 +87,7 @@ def simulate(scn: Scenario, folder: Path, inputs: RunInputs, gui=None) -> Simula
     observers = [view.show] if view is not None else []  # called with each step's (World, Decisions)
     generic = {} if scn.network.generated else dict(
         lane_change_mode=LANE_CHANGE_MODE_STRATEGIC, adopt_controlled=controller.controls_vehicles,
+        adopt_road_speed=scn.network.desired_speed == "road",
         control_range=scn.network.control_range,
         crossings=movement_crossings(inputs.movements), people_first=controller.controls_vehicles)
     sim = SumoSimulation(movements=inputs.movements, vehicles=infos, step_length=s.step_length,

@@ -23,10 +23,11 @@ import sumolib
 from intersection_cosim.errors import InputError
 from intersection_cosim.network.junction_net import junction_table, load_movements
 from intersection_cosim.network.xml_files import xml_root
-from intersection_cosim.scenario.model import PAPER_JUNCTION, SIGNALS, NetworkSettings
+from intersection_cosim.scenario.model import DESIRED_SPEEDS, PAPER_JUNCTION, SIGNALS, NetworkSettings
 from intersection_cosim.scenario.sumocfg import SumoConfig, read_sumocfg
 
-NETWORK_KEYS = ("sumocfg", "file", "junctions", "signals", "control_range", "routes", "additional")
+NETWORK_KEYS = ("sumocfg", "file", "junctions", "signals", "control_range", "desired_speed", "routes",
+                "additional")
 ROUTE_CHECK_TIMEOUT = 30.0  # [s] wall time SUMO may take to load a user route file
 VAR = re.compile(r"\$(\w+)|\$\{(\w+)\}")
 
@@ -126,6 +127,13 @@ def _junctions(src: str, value: Any, net: sumolib.net.Net) -> tuple[str, ...]:
 def _signals(src: str, value: Any) -> str:
     if value not in SIGNALS:
         raise InputError(src, "network.signals", value, f"must be one of {', '.join(repr(s) for s in SIGNALS)}")
+    return value
+
+
+def _desired_speed(src: str, value: Any) -> str:
+    if value not in DESIRED_SPEEDS:
+        raise InputError(src, "network.desired_speed", value,
+                         f"must be one of {', '.join(repr(s) for s in DESIRED_SPEEDS)}")
     return value
 
 
@@ -229,6 +237,7 @@ def network_settings(src: str, table: Any, base: Path) -> NetworkSettings:
     settings = NetworkSettings(file=net_file, junctions=junctions,
                                signals=_signals(src, table.get("signals", "off")),
                                control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes,
+                               desired_speed=_desired_speed(src, table.get("desired_speed", "v_max")),
                                sumocfg=None if cfg is None else cfg.path,
                                additional=additional, sumocfg_loading=loading,
                                sumocfg_begin=None if cfg is None else cfg.begin,
@@ -292,6 +301,8 @@ def _generated(src: str, table: dict) -> NetworkSettings:
         raise InputError(src, "network.signals", table["signals"], "needs network.file")
     if "control_range" in table and _control_range(src, table["control_range"]) != default.control_range:
         raise InputError(src, "network.control_range", table["control_range"], "needs network.file")
+    if "desired_speed" in table and _desired_speed(src, table["desired_speed"]) != default.desired_speed:
+        raise InputError(src, "network.desired_speed", table["desired_speed"], "needs network.file or network.sumocfg")
     for key in ("routes", "additional"):
         if key in table:
             raise InputError(src, f"network.{key}", table[key], "needs network.file or network.sumocfg")

@@ -36,7 +36,7 @@ from intersection_cosim.sim.onboard import OnboardGuard
 from intersection_cosim.sim.people import CrossingPeople
 from intersection_cosim.sim.signals import set_signal_states, switch_signals_off
 from intersection_cosim.sim.snapshot import Bodies, junction_bodies, lane_junctions, watched_lanes, world_snapshot
-from intersection_cosim.sim.vehicles import VehicleInfo
+from intersection_cosim.sim.vehicles import VehicleInfo, adopted
 
 __all__ = ["LANE_CHANGE_MODE_STRATEGIC", "LIBSUMO", "SumoBackend", "SumoSimulation", "VehicleInfo", "sumo_version",
            "traci_backend"]
@@ -79,6 +79,7 @@ class SumoSimulation:
     switched: set[str] = field(default_factory=set)  # vehicles moved onto another connection
     lane_change_mode: int = LANE_CHANGE_MODE_CONTROLLED  # of a controlled vehicle
     adopt_controlled: bool = True  # vehicles of the user's own route file are controlled
+    adopt_road_speed: bool = False  # they desire their roads' limits (network.desired_speed "road")
     control_range: float = math.inf  # [m] before the stop line where a vehicle without an intended path is taken over
     taken: set[str] = field(default_factory=set)  # vehicles whose speed the controller commands
     bodies: dict[str, tuple[float, float, float, float, float]] = field(default_factory=dict)  # per vehicle, read
@@ -300,14 +301,9 @@ class SumoSimulation:
             self.taken.discard(vid)  # on any net it may be taken over at the next managed junction
 
     def _adopt(self, vid: str) -> VehicleInfo:
-        """A vehicle of the user's own route file: kappa from its ``kappa`` parameter (else 0.5),
-        its route from SUMO, controlled like the scenario's vehicles."""
-        veh = self.api.vehicle
-        kappa = veh.getParameter(vid, "kappa") or "0.5"  # a <param key="kappa"> of the vehicle, else moderate
-        info = VehicleInfo("", "", "", float(kappa), None, self.adopt_controlled,
-                           route=frozenset(veh.getRoute(vid)), vtype=veh.getTypeID(vid))
-        self.vehicles[vid] = info
-        return info
+        """A vehicle of the user's own route file, controlled like the scenario's (sim/vehicles.py)."""
+        self.vehicles[vid] = adopted(self.api, vid, self.adopt_controlled, self.adopt_road_speed)
+        return self.vehicles[vid]
 
     # --- read ------------------------------------------------------------------------------
     def read_state(self, vid: str) -> dict:

@@ -97,3 +97,33 @@ def test_a_gzipped_net_runs_as_the_plain_one(tmp_path):
     assert (tmp_path / "gz" / "intersection.net.xml").read_bytes() == Path(scn.network.file).read_bytes()
     trajs = [pd.read_csv(tmp_path / name / "trajectories.csv") for name in ("plain", "gz")]
     pd.testing.assert_frame_equal(trajs[0], trajs[1])
+
+
+def _alone(tmp_path: Path, name: str, vtype: str, desired: str) -> pd.DataFrame:
+    """One vehicle of the user's route file straight over SUMO's cross (roads signed 13.89 m/s),
+    alone: its speeds [m/s] inside the managed junction (role passing)."""
+    routes = tmp_path / f"{name}.rou.xml"
+    routes.write_text(f'<routes>\n  <vType id="car" length="4.5" width="1.8" {vtype}/>\n'
+                      '  <vehicle id="car" type="car" depart="0" departSpeed="0"><route edges="1fi 1si 2o 2fo"/>'
+                      '</vehicle>\n</routes>\n')
+    scenario = tmp_path / f"{name}.toml"
+    scenario.write_text('[scenario]\nname = "alone"\nduration = 5.0\ndrain = 60.0\n\n[controller]\nkind = "nash"\n\n'
+                        '[network]\nfile = "$SUMO_HOME/tools/game/cross/cross.net.xml"\njunctions = ["0"]\n'
+                        f'routes = "{routes}"\ndesired_speed = "{desired}"\n')
+    summary = run_scenario(load_scenario(scenario), tmp_path / name)
+    assert summary["counts"]["arrived"] == 1 and summary["counts"]["collisions"] == 0
+    traj = pd.read_csv(tmp_path / name / "trajectories.csv")
+    return traj[traj["role"] == "passing"]["speed"]
+
+
+def test_a_route_file_vehicle_desires_its_roads_limit_up_to_its_vtypes_max_speed(tmp_path):
+    """network.desired_speed "road": an adopted vehicle alone on the cross's 13.89 m/s roads
+    crosses the managed junction close to that limit, never over it, and no faster than its vType's
+    maxSpeed; "v_max": slowed to the model's v_max (10 m/s), as before the setting."""
+    road = _alone(tmp_path, "road", "", "road")
+    capped = _alone(tmp_path, "capped", 'maxSpeed="12"', "road")
+    model = _alone(tmp_path, "model", "", "v_max")
+    assert len(road) > 5 and len(capped) > 5 and len(model) > 5
+    assert 13.0 < road.min() and road.max() <= 13.89 + 0.05  # [m/s]
+    assert 11.5 < capped.min() and capped.max() <= 12.0 + 0.05
+    assert model.max() <= 10.5 and model.min() > 9.0

@@ -43,3 +43,10 @@ def test_an_exit_lane_choice_late_from_a_junction_the_vehicle_has_left_is_not_ta
     sim = _sim({"a": "A", "b": "B"}, {"v": "b"}, v=_info(exit_lane="0", exit_junction="B"))
     take_exit_choices(sim, Decisions(exit_lane={"v": "1"}, owner={"v": "A"}))
     assert (sim.vehicles["v"].exit_lane, sim.vehicles["v"].exit_junction) == ("0", "B")
+
+
+def test_a_route_file_vehicle_desires_the_roads_limit_up_to_its_top_speed_and_a_scenarios_its_own():
+    adopted = _info(road_speed=12.0)  # [m/s] its vType's maxSpeed
+    assert (adopted.desired_at(8.33), adopted.desired_at(13.89)) == (8.33, 12.0)
+    assert _info(desired_speed=9.0, road_speed=12.0).desired_at(13.89) == 9.0  # its own desire first
+    assert _info().desired_at(13.89) is None  # the model's v_max
