@@ -86,3 +86,19 @@ def test_a_vehicle_alone_has_no_leader_and_no_pair_in_the_shape_the_pairs_of_two
     for name in ("ri", "rj", "cross", "s_i", "s_j", "live", "play", "zone_i", "zone_j", "human", "human_j"):
         mine, theirs = getattr(alone.pairs, name), getattr(cleared, name)
         assert (mine.dtype, mine.shape) == (theirs.dtype, theirs.shape), name
+
+
+def test_two_guests_coming_to_the_junction_are_a_guarded_pair_that_never_plays(paths, movements, conflict_table):
+    """Vehicles other junctions command (World.guest, role ready) over a crossing: the filter
+    must keep them apart, so their pair is guarded (not played: neither is this junction's); a
+    guest that has left (role outside) and one of the junction's own vehicles pairs as before."""
+    import numpy as np
+
+    t = conflict_table
+    world = _crossing_world(paths, t)
+    guests = dataclasses.replace(world, guest=np.array([True, True]))
+    (lat,) = step_relations(guests, set(), movements, t, MODEL, True, {}, RANGE).lateral
+    assert lat.kind == "cross" and not lat.live and not lat.play
+    gone = dataclasses.replace(guests, role=["outside", "ready"])
+    assert step_relations(gone, set(), movements, t, MODEL, True, {}, RANGE).lateral == ()
+    assert step_relations(world, set(), movements, t, MODEL, True, {}, RANGE).lateral == ()  # no guest, nobody's

@@ -56,7 +56,7 @@ from intersection_cosim.control.game.cluster_games import ClusterGames, cluster_
 from intersection_cosim.control.game.pair_games import GameSolver, PairGame, game_problems, pair_games, play, urgency
 from intersection_cosim.control.game.plan_memory import GameKey, PlanMemory
 from intersection_cosim.control.game.records import Choice, ConvergenceRecord
-from intersection_cosim.control.game.relations import Relations, TriggerHold, step_relations
+from intersection_cosim.control.game.relations import Relations, TriggerHold, approaching_guests, step_relations
 from intersection_cosim.control.safety.context import GuardedJunction
 from intersection_cosim.control.safety.filter import SafetyFilter
 from intersection_cosim.control.safety.kinematics import occupancy_times
@@ -174,7 +174,7 @@ class GameController:
                   if world.role[k] != "outside" and not world.is_human(k) and not world.is_guest(k)]
         decisions = Decisions(release=self._release(world, active))
         self.safety.record_entries(world)
-        if not active:
+        if not active and approaching_guests(world).sum() < 2:  # two guests: the filter keeps them apart
             return decisions
         self.memory.prune_warm({world.ids[k] for k in active})
         relations = self._relations(world, set(active))

@@ -243,7 +243,8 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     if hold is not None and hold.pairs:
         kept = _event_pairs(risk, k_of, world.ids, hold.pairs) & (np.abs(risk.tcp_i - risk.tcp_j) < hold.gap)
         forced = kept if forced is None else forced | kept
-    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.observed(), forced)
+    lateral = _laterals(risk, d, s_now, k_of, active, table, pidx, model, etm, bodies, world.observed(), forced,
+                        approaching_guests(world))
     return leaders, lateral
 
 
@@ -322,20 +323,31 @@ def _zones(table: ConflictTable, p: tuple[np.ndarray, np.ndarray], s_cp: tuple[n
     return tuple(zone_i), tuple(zone_j)
 
 
+def approaching_guests(world: World) -> np.ndarray:
+    """(n,) bool: the guests coming towards this junction (World.guest, role ready): vehicles other
+    junctions command that this one must keep apart, from each other too, by capping them."""
+    if world.guest is None:
+        return np.zeros(len(world.ids), bool)
+    return world.guest & (np.asarray(world.role, dtype=object) == "ready")
+
+
 def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
               pidx: np.ndarray, model: ModelSettings, etm: bool,
               bodies: tuple[np.ndarray, np.ndarray], human: np.ndarray | None,
-              events: np.ndarray | None = None) -> LateralPairs:
-    """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle
-    whose two vehicles have not cleared the crossing (in the ETM's order). ``human``: bool per
-    World vehicle, a human driver (None: none); ``events``: bool per ETM pair, fired whatever
-    Gamma_cp says (None: none)."""
+              events: np.ndarray | None = None, coming: np.ndarray | None = None) -> LateralPairs:
+    """The ETM's cross and confluence pairs as lateral pairs: those with a controlled vehicle, or
+    of two guests coming towards the junction (``coming``: bool per World vehicle, see
+    :func:`approaching_guests`; two vehicles other junctions command over short links would
+    otherwise meet here unguarded), whose two vehicles have not cleared the crossing (in the
+    ETM's order). ``human``: bool per World vehicle, a human driver or a guest (None: none);
+    ``events``: bool per ETM pair, fired whatever Gamma_cp says (None: none)."""
     is_active = np.zeros(int(k_of.max()) + 1 if len(k_of) else 0, bool)  # by World index
     is_active[[k for k in active if k < len(is_active)]] = True
     row_active = is_active[k_of]
     a_i, a_j = row_active[risk.i], row_active[risk.j]
     lateral_kind = ((risk.kind == KIND_CROSS) | (risk.kind == KIND_CONFLUENCE)) & ~risk.leader_follower
-    m = np.flatnonzero(lateral_kind & (a_i | a_j))
+    guests = np.zeros(len(risk.i), bool) if coming is None else coming[k_of[risk.i]] & coming[k_of[risk.j]]
+    m = np.flatnonzero(lateral_kind & (a_i | a_j | guests))
     ri, rj = risk.i[m], risk.j[m]
     s_i, s_j = risk.s_cp_i[m], risk.s_cp_j[m]  # [m]
     cross = risk.kind[m] == KIND_CROSS
