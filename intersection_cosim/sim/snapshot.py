@@ -90,7 +90,7 @@ def guests_of(sim, vid: str, s: float) -> list[Guest]:
     before = sim.previous_path.get(vid)
     if before is not None and lane == paths[before].lanes[-1] and lane in path.lanes:
         out.append(Guest(vid, before, _offset(path, paths[before], lane), OUTSIDE))
-    offset, seen = 0.0, {path_junction(sim.movements, pid)}  # offset [m]: arc length on ``path`` to P's
+    offset, seen = 0.0, {path_junction(sim.movements, pid)}  # offset [m]: from an arc length on P to one on ``path``
     for _hop in range(GUEST_HOPS):
         link = path.lanes[-1]
         nxt = None if lane == link else sim.approach_path(link, vid)

@@ -22,7 +22,7 @@ from intersection_cosim.models.risk import event_trigger
 from intersection_cosim.models.settings import ModelSettings
 from intersection_cosim.network.conflicts import KIND_CONFLUENCE, KIND_CROSS, KIND_FOLLOWING, ConflictTable
 from intersection_cosim.network.conflict_zones import point_zone
-from intersection_cosim.network.movements import Movements
+from intersection_cosim.network.movements import READY, Movements
 
 
 @dataclass(frozen=True)
@@ -328,7 +328,7 @@ def approaching_guests(world: World) -> np.ndarray:
     junctions command that this one must keep apart, from each other too, by capping them."""
     if world.guest is None:
         return np.zeros(len(world.ids), bool)
-    return world.guest & (np.asarray(world.role, dtype=object) == "ready")
+    return world.guest & (np.asarray(world.role, dtype=object) == READY)
 
 
 def _laterals(risk, d, s_now, k_of: np.ndarray, active: set[int], table: ConflictTable,
