@@ -368,7 +368,8 @@ def test_under_position_noise_a_vehicle_read_inside_the_widened_zone_still_stays
     A entered the junction first and stands 0.5 m short of its crossing zone (0.85 m of slack:
     read inside the widened zone); B entered later and stands in the crossing. A, ranked first
     by the entry queue, must still hold before the zone, not be let drive into B (fokr38 over a
-    noisy link: a vehicle stopped short of its zone drove into one standing in the crossing)."""
+    noisy link: a vehicle stopped short of its zone drove into one standing in the crossing); B,
+    waited for, drives out of the crossing."""
     t = conflict_table
     p, q = _deepest_crossing(t)
     a_path, b_path = t.ids[p], t.ids[q]
@@ -384,7 +385,7 @@ def test_under_position_noise_a_vehicle_read_inside_the_widened_zone_still_stays
     d = Decisions(accel={"A": 1.0, "B": 0.0})
     f.apply(world, _relations(world, movements, t), plans, {}, d)
     assert d.accel["A"] <= 0.0  # A holds short of the crossing B stands in
-    assert d.accel["B"] <= 0.0
+    assert d.accel["B"] == GS.clear_accel  # and B, waited for, drives out of it (box_clear)
 
 
 def test_a_vehicle_held_for_one_crossing_leaves_the_crossing_it_stands_in_and_stops_between_them(

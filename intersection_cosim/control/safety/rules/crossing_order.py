@@ -13,7 +13,8 @@ Action: the lower-ranked vehicle stays out: it stops ``margin`` before its stop 
 not reached it (it enters the junction only to clear it), else before the zone (``human_margin``
 before a human's), and one standing in the junction inside another of its crossing zones that it
 can leave short of this one drives out of it and stands between the two. If it cannot stay out
-the higher-ranked one does, if it can. Both committed: the lower-ranked one holds back as hard as
+the higher-ranked one does, if it can, and waits for it (``box_clear`` drives it on if it
+stands in the zone). Both committed: the lower-ranked one holds back as hard as
 it may, unless that would stop it in the crossing while the other is still coming, or in a human's
 way: then it drives out. A human is never made to yield (nothing commands it); it ranks ahead of
 every AV not yet in the junction, behind those inside. A guest (a vehicle another managed
@@ -127,8 +128,7 @@ def guard(ctx: StepContext, step: FilterStep, lat: Lateral, occ: tuple | None = 
                          (ctx.relations.pairs, c.row))
         if a is not None:
             step.lower(ids[c.k], a, NAME)
-            if n == 0:
-                step.waits.append(Wait(c.k, other.k, other.enter))
+            step.waits.append(Wait(c.k, other.k, other.enter))  # either way round: box_clear ends it
             return
     _committed(ctx, step, lat, lower_first)
 
