@@ -18,6 +18,10 @@ from intersection_cosim.network.paths import MovementPath
 _ZONE_STEP = 0.25  # [m] spacing of the front positions and body-outline samples of conflict_zone
 _ZONE_MARGIN = 0.2  # [m] an outline point this close to a swept-area grid point overlaps it
 ZONE_MERGE = 0.05  # [m] swept-area points of other bodies than a table's own are merged on this grid
+# [m] how far past the true first touch a zone may start: its fronts are sampled _ZONE_STEP apart,
+# and the first sample that overlaps may lie up to one step past the touch (a vehicle held at a
+# zone's edge keeps this much more back)
+ZONE_RESOLUTION = _ZONE_STEP
 
 
 def _body_points(path: MovementPath, s_front: np.ndarray, length: float, width: float,

@@ -28,8 +28,11 @@ from intersection_cosim.games.problem import Plan
 from intersection_cosim.games.settings import ProblemSettings
 from intersection_cosim.models.cost import time_to_conflict_point
 from intersection_cosim.models.settings import ModelSettings
+from intersection_cosim.network.conflict_zones import ZONE_RESOLUTION
 from intersection_cosim.network.movements import Movements
 
+EDGE_CLEARANCE = ZONE_RESOLUTION + 0.05  # [m] a vehicle held at a zone's edge stops this far before its
+#                                         sampled start: clear of the true first touch (ZONE_RESOLUTION)
 WAIT_REACH = 1.0  # [m] how far before its waiting position a standing human counts as waiting there
 
 
@@ -211,8 +214,8 @@ class StepContext:
         brake = self.brake(k)
         # one that has not reached its stop line stops at it, not on into the junction towards the
         # zone: inside, the entry queue would rank it ahead of the vehicle it stays out for
-        line = min(s_stop, enter) - 0.05 if s_k < s_stop else -math.inf  # [m]
-        for target in (s_stop - st.margin, line, enter - margin, enter - st.margin, enter - 0.05):
+        line = min(s_stop - 0.05, enter - EDGE_CLEARANCE) if s_k < s_stop else -math.inf  # [m]
+        for target in (s_stop - st.margin, line, enter - margin, enter - st.margin, enter - EDGE_CLEARANCE):
             if target <= s_k:
                 continue
             a = stopping_acceleration(s_k, v_k, target)
