@@ -102,3 +102,24 @@ def test_two_guests_coming_to_the_junction_are_a_guarded_pair_that_never_plays(p
     gone = dataclasses.replace(guests, role=["outside", "ready"])
     assert step_relations(gone, set(), movements, t, MODEL, True, {}, RANGE).lateral == ()
     assert step_relations(world, set(), movements, t, MODEL, True, {}, RANGE).lateral == ()  # no guest, nobody's
+
+
+def test_two_guests_on_one_path_are_not_leader_and_follower(paths, movements, conflict_table):
+    """Guests sit on the path at minus their distance along their own routes to its start, so two
+    that come from different lanes of the junction before would be put one behind the other on a
+    lane neither has reached (on ingolstadt21 a guest 1.5 m "behind" another, which stood at the
+    other lane's stop line, was held for good by the Krauss cap, and held that one in turn). Two
+    guests get no leader relation; a guest behind one of the junction's own vehicles, and two own
+    vehicles, keep theirs."""
+    import numpy as np
+
+    t = conflict_table
+    world = make_world(paths, 0.0, [("A", LANE, -12.5, 0.0), ("B", LANE, -14.0, 0.5)])
+    own = step_relations(world, {0, 1}, movements, t, MODEL, True, {}, RANGE)
+    assert [(world.ids[int(own.rows.vehicle[r])], world.ids[lead.vehicle]) for r, lead in own.leaders.items()] == [("B", "A")]
+    guests = dataclasses.replace(world, guest=np.array([True, True]))
+    assert step_relations(guests, set(), movements, t, MODEL, True, {}, RANGE).leaders == {}
+    mixed = make_world(paths, 0.0, [("A", LANE, 5.0, 0.0), ("B", LANE, -10.0, 5.0)])
+    mixed = dataclasses.replace(mixed, guest=np.array([False, True]))
+    rel = step_relations(mixed, {0}, movements, t, MODEL, True, {}, RANGE)
+    assert [(mixed.ids[int(rel.rows.vehicle[r])], mixed.ids[lead.vehicle]) for r, lead in rel.leaders.items()] == [("B", "A")]

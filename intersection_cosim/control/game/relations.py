@@ -238,7 +238,7 @@ def _pair_relations(world: World, rows: Rows, active: set[int], table: ConflictT
     s_now = (world.s[k_of[risk.i]], world.s[k_of[risk.j]])
     d = (risk.s_cp_i - s_now[0], risk.s_cp_j - s_now[1])
     bodies = (world.lengths(model.vehicle_length), world.widths(model.vehicle_width))  # [m] per World index
-    leaders = _leaders(risk, d, k_of, model.conflict_clearance, bodies[0])
+    leaders = _leaders(risk, d, k_of, model.conflict_clearance, bodies[0], world.guest)
     forced = _event_pairs(risk, k_of, world.ids, events)
     if hold is not None and hold.pairs:
         kept = _event_pairs(risk, k_of, world.ids, hold.pairs) & (np.abs(risk.tcp_i - risk.tcp_j) < hold.gap)
@@ -268,15 +268,22 @@ def named_pairs(ids, names, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.isin(np.minimum(a, b) * n + np.maximum(a, b), keys)
 
 
-def _leaders(risk, d, k_of: np.ndarray, clear: float, length: np.ndarray) -> dict[int, Leader]:
+def _leaders(risk, d, k_of: np.ndarray, clear: float, length: np.ndarray,
+             guest: np.ndarray | None = None) -> dict[int, Leader]:
     """Each follower row's nearest leader among the ETM's leader-follower pairs (the first such
     pair in the ETM's order on equal gaps), keyed in the order the followers first appear.
 
     A following pair whose leader has left the shared stretch (more than ``clear`` [m], or the
-    longer vehicle's ``length`` [m] per World index, past its end) gives no leader."""
+    longer vehicle's ``length`` [m] per World index, past its end) gives no leader, and neither
+    does one of two guests (``guest``: bool per World index): each guest's position on the path
+    is measured along its own route to the path's start, so two guests coming from different
+    lanes of the junction before are put on one lane they have not reached, in an order their
+    merge there (their owner's to guard) has not decided."""
     d_i, d_j = d
     clear_m = np.maximum(clear, np.maximum(length[k_of[risk.i]], length[k_of[risk.j]]))  # [m] per pair
     gone = (np.minimum(d_i, d_j) < -clear_m) & (risk.kind != KIND_CONFLUENCE)
+    if guest is not None:
+        gone |= guest[k_of[risk.i]] & guest[k_of[risk.j]] & (risk.kind == KIND_FOLLOWING)
     m = np.flatnonzero(risk.leader_follower & ~gone)
     if len(m) == 0:
         return {}
