@@ -25,6 +25,34 @@ def take_exit_choices(sim, decisions) -> None:
             info.exit_lane, info.exit_junction = lane, here
 
 
+def route_exit_options(sim, vid: str, pid: str, options: tuple[str, ...]) -> tuple[str, ...]:
+    """The exit lanes of ``options`` (the movement's, preferred first) from which ``vid``'s route
+    goes on: those with a link to the route's edge after the exit edge. All of them where none
+    has one or the route ends on the exit edge (the paper's nets, a trip's last junction).
+
+    An exit lane that does not lead on along the route must be left by a lane change; on a short
+    exit edge (InTAS Ingolstadt feeds its 7-arm cluster by a 4.5 m edge with one lane per next
+    edge) there is no room for one, and SUMO stops the vehicle at the lane's end for good."""
+    if len(options) < 2:
+        return options
+    exit_lanes = [sim.paths[sim.movements.siblings.get((pid, o), pid)].lanes[-1] for o in options]
+    route, index = sim.api.vehicle.getRoute(vid), sim.api.vehicle.getRouteIndex(vid)
+    exit_edge = exit_lanes[0].rsplit("_", 1)[0]
+    ahead = route[max(index, 0):]
+    if exit_edge not in ahead or ahead.index(exit_edge) + 1 >= len(ahead):
+        return options
+    after = ahead[ahead.index(exit_edge) + 1]
+    keep = tuple(o for o, lane in zip(options, exit_lanes) if after in _next_edges(sim, lane))
+    return keep or options
+
+
+def _next_edges(sim, lane: str) -> frozenset[str]:
+    """The edges ``lane``'s links lead onto (read from SUMO once per lane)."""
+    if lane not in sim.lane_links:
+        sim.lane_links[lane] = frozenset(link[0].rsplit("_", 1)[0] for link in sim.api.lane.getLinks(lane))
+    return sim.lane_links[lane]
+
+
 def switch_exit_lane(sim, vid: str, lane: str, pid: str, exit_lane: str) -> None:
     """Put a vehicle that entered the junction on path ``pid`` on the internal lane of the
     connection to its chosen ``exit_lane``; where its approach lane has no such connection it

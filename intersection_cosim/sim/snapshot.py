@@ -12,6 +12,7 @@ import numpy as np
 
 from intersection_cosim.control.base import Guest, World
 from intersection_cosim.network.by_junction import path_junction
+from intersection_cosim.sim.exit_lanes import route_exit_options
 from intersection_cosim.network.movements import OUTSIDE, READY, Movements
 
 
@@ -138,7 +139,8 @@ def world_snapshot(sim) -> World:
         # the next managed junction's approach (a corridor)
         role = OUTSIDE if lane == path.lanes[-1] else sim.movements.role(lane)
         if info is not None and role == READY and not info.exit_fixed and info.driver != "human":
-            exit_choices[vid] = sim.movements.options(pid)
+            options = sim.movements.options(pid)  # given by approach and movement: its route ends there
+            exit_choices[vid] = options if info.intended_path is not None else route_exit_options(sim, vid, pid, options)
         else:
             exit_choices[vid] = (path.exit_lane,)
         roles.append(role)

@@ -1,0 +1,67 @@
+"""A vehicle's exit lane leads on along its route: the controller never sends it onto a lane of a
+short exit edge from which its route does not go on.
+
+Closed loop on a netconvert net: road W-C (one lane) crosses a north-south street at junction C
+(managed) and goes on as the 3-lane edge CD, about 10 m long, to node D, where each lane of CD
+leads onto one road of its own (lane 0 to DR, lane 1 to DS, lane 2 to DL). The movement W-C-D has
+three exit lanes; the lane-choice game prefers the one in line with the approach (lane 0). InTAS
+Ingolstadt feeds its 7-arm cluster junction by such an edge (4.5 m): a vehicle put on a lane that
+does not lead on stopped at that lane's end, and a queue formed behind it. On this edge SUMO
+still changes lanes in time, so the test checks the lane each vehicle drives on CD.
+"""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import pandas as pd
+import sumolib
+
+from intersection_cosim.experiments.run import run_scenario
+from intersection_cosim.scenario import scenario_from_dict
+
+
+def _fan_net(folder: Path) -> Path:
+    (folder / "f.nod.xml").write_text(
+        '<nodes><node id="W" x="-300" y="0"/><node id="C" x="0" y="0" type="priority"/>'
+        '<node id="D" x="25" y="0" type="priority"/><node id="N" x="0" y="200"/><node id="X" x="0" y="-200"/>'
+        '<node id="R" x="150" y="-150"/><node id="S" x="250" y="0"/><node id="L" x="150" y="150"/></nodes>')
+    (folder / "f.edg.xml").write_text("<edges>" + "".join(
+        f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="13.89"/>'
+        for e, a, b, n in (("WC", "W", "C", 1), ("CD", "C", "D", 3), ("NC", "N", "C", 1), ("CX", "C", "X", 1),
+                           ("DR", "D", "R", 1), ("DS", "D", "S", 1), ("DL", "D", "L", 1))) + "</edges>")
+    (folder / "f.con.xml").write_text("<connections>" + "".join(
+        f'<connection from="WC" to="CD" fromLane="0" toLane="{k}"/>' for k in range(3)) + "".join(
+        f'<connection from="CD" to="{e}" fromLane="{k}" toLane="0"/>' for k, e in enumerate(("DR", "DS", "DL")))
+        + "</connections>")
+    net = folder / "fan.net.xml"
+    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "f.nod.xml", "-e", "f.edg.xml", "-x", "f.con.xml",
+                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
+    return net
+
+
+def test_every_vehicle_is_sent_onto_an_exit_lane_its_route_goes_on_from(tmp_path):
+    net = _fan_net(tmp_path)
+    sumo_net = sumolib.net.readNet(str(net))
+    assert sumo_net.getEdge("CD").getLength() < 20.0  # [m] too short to change lanes on
+    for k, edge in enumerate(("DR", "DS", "DL")):  # each lane of CD leads onto one road only
+        assert [c.getTo().getID() for c in sumo_net.getEdge("CD").getLanes()[k].getOutgoing()] == [edge]
+    routes = tmp_path / "demand.rou.xml"
+    trips = "".join(f'<vehicle id="{e}{n}" type="car" depart="{6 * n + 2 * k}" departSpeed="max">'
+                    f'<route edges="WC CD {e}"/></vehicle>'
+                    for n in range(3) for k, e in enumerate(("DL", "DS", "DR")))
+    routes.write_text(f'<routes><vType id="car" length="4.5" width="1.8"/>{trips}</routes>')
+    data = {"scenario": {"name": "fan", "duration": 20.0, "drain": 60.0, "seed": 1},
+            "controller": {"kind": "nash", "budget_ms": 2000.0},
+            "network": {"file": str(net), "junctions": ["C"], "routes": str(routes)}}
+    summary = run_scenario(scenario_from_dict(data, "<fan>"), tmp_path / "run")
+    assert summary["counts"]["arrived"] == 9 and summary["counts"]["collisions"] == 0
+    log = (tmp_path / "run" / "sumo.log").read_text()
+    assert "no connection to the next edge" not in log
+    traj = pd.read_csv(tmp_path / "run" / "trajectories.csv")
+    on_cd = traj[traj["lane"].str.startswith("CD_")]
+    want = {"DR": "CD_0", "DS": "CD_1", "DL": "CD_2"}
+    assert set(on_cd["vehicle"]) == {f"{e}{n}" for e in want for n in range(3)}
+    for vid, lanes in on_cd.groupby("vehicle")["lane"]:
+        assert set(lanes) == {want[vid[:2]]}, vid  # on CD only on the lane its route goes on from
