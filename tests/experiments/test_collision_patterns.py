@@ -24,6 +24,7 @@ from intersection_cosim.results.sumo_outputs import read_collisions
 from intersection_cosim.scenario import scenario_from_dict
 from intersection_cosim.sim.sumo import SumoSimulation
 from intersection_cosim.v2x.channel import Channel
+from tests.plain_nets import plain_net
 
 pytestmark = pytest.mark.slow
 
@@ -427,22 +428,13 @@ def _narrowing(folder: Path) -> Path:
     boxes is 0.2 m long (as between some of InTAS Ingolstadt's junctions): WA (two lanes; lane 1
     onto either lane of AB, lane 0 onto AB's lane 0), AB (two lanes, both onto BE's one lane),
     BE; a southbound street through each. Priority junctions."""
-    (folder / "n.nod.xml").write_text(
-        '<nodes><node id="A" x="0" y="0" type="priority"/><node id="B" x="10" y="0" type="priority"/>'
-        '<node id="W" x="-200" y="0"/><node id="E" x="160" y="0"/><node id="NA" x="0" y="150"/>'
-        '<node id="SA" x="0" y="-150"/><node id="NB" x="10" y="150"/><node id="SB" x="10" y="-150"/></nodes>')
-    (folder / "n.edg.xml").write_text("<edges>" + "".join(
-        f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="13.89"/>'
-        for e, a, b, n in (("WA", "W", "A", 2), ("AB", "A", "B", 2), ("BE", "B", "E", 1), ("NAA", "NA", "A", 1),
-                           ("ASA", "A", "SA", 1), ("NBB", "NB", "B", 1), ("BSB", "B", "SB", 1))) + "</edges>")
-    (folder / "n.con.xml").write_text("<connections>" + "".join(
-        f'<connection from="{a}" to="{b}" fromLane="{i}" toLane="{j}"/>'
-        for a, b, i, j in (("WA", "AB", 0, 0), ("WA", "AB", 1, 0), ("WA", "AB", 1, 1), ("AB", "BE", 0, 0),
-                           ("AB", "BE", 1, 0), ("NAA", "ASA", 0, 0), ("NBB", "BSB", 0, 0))) + "</connections>")
-    net = folder / "narrowing.net.xml"
-    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "n.nod.xml", "-e", "n.edg.xml", "-x", "n.con.xml",
-                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
-    return net
+    nodes = [("A", 0, 0, "priority"), ("B", 10, 0, "priority"), ("W", -200, 0, None), ("E", 160, 0, None),
+             ("NA", 0, 150, None), ("SA", 0, -150, None), ("NB", 10, 150, None), ("SB", 10, -150, None)]
+    edges = [("WA", "W", "A", 2), ("AB", "A", "B", 2), ("BE", "B", "E", 1), ("NAA", "NA", "A", 1),
+             ("ASA", "A", "SA", 1), ("NBB", "NB", "B", 1), ("BSB", "B", "SB", 1)]
+    connections = [("WA", "AB", 0, 0), ("WA", "AB", 1, 0), ("WA", "AB", 1, 1), ("AB", "BE", 0, 0),
+                   ("AB", "BE", 1, 0), ("NAA", "ASA", 0, 0), ("NBB", "BSB", 0, 0)]
+    return plain_net(folder, "narrowing", nodes, edges, connections)
 
 
 def test_an_exit_lane_chosen_at_one_junction_is_not_enforced_at_the_next(tmp_path, monkeypatch):

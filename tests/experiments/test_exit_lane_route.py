@@ -12,7 +12,6 @@ still changes lanes in time, so the test checks the lane each vehicle drives on 
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 import pandas as pd
@@ -20,25 +19,16 @@ import sumolib
 
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.scenario import scenario_from_dict
+from tests.plain_nets import plain_net
 
 
 def _fan_net(folder: Path) -> Path:
-    (folder / "f.nod.xml").write_text(
-        '<nodes><node id="W" x="-300" y="0"/><node id="C" x="0" y="0" type="priority"/>'
-        '<node id="D" x="25" y="0" type="priority"/><node id="N" x="0" y="200"/><node id="X" x="0" y="-200"/>'
-        '<node id="R" x="150" y="-150"/><node id="S" x="250" y="0"/><node id="L" x="150" y="150"/></nodes>')
-    (folder / "f.edg.xml").write_text("<edges>" + "".join(
-        f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="13.89"/>'
-        for e, a, b, n in (("WC", "W", "C", 1), ("CD", "C", "D", 3), ("NC", "N", "C", 1), ("CX", "C", "X", 1),
-                           ("DR", "D", "R", 1), ("DS", "D", "S", 1), ("DL", "D", "L", 1))) + "</edges>")
-    (folder / "f.con.xml").write_text("<connections>" + "".join(
-        f'<connection from="WC" to="CD" fromLane="0" toLane="{k}"/>' for k in range(3)) + "".join(
-        f'<connection from="CD" to="{e}" fromLane="{k}" toLane="0"/>' for k, e in enumerate(("DR", "DS", "DL")))
-        + "</connections>")
-    net = folder / "fan.net.xml"
-    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "f.nod.xml", "-e", "f.edg.xml", "-x", "f.con.xml",
-                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
-    return net
+    nodes = [("W", -300, 0, None), ("C", 0, 0, "priority"), ("D", 25, 0, "priority"), ("N", 0, 200, None),
+             ("X", 0, -200, None), ("R", 150, -150, None), ("S", 250, 0, None), ("L", 150, 150, None)]
+    edges = [("WC", "W", "C", 1), ("CD", "C", "D", 3), ("NC", "N", "C", 1), ("CX", "C", "X", 1),
+             ("DR", "D", "R", 1), ("DS", "D", "S", 1), ("DL", "D", "L", 1)]
+    connections = [("WC", "CD", 0, k) for k in range(3)] + [("CD", e, k, 0) for k, e in enumerate(("DR", "DS", "DL"))]
+    return plain_net(folder, "fan", nodes, edges, connections)
 
 
 def test_every_vehicle_is_sent_onto_an_exit_lane_its_route_goes_on_from(tmp_path):

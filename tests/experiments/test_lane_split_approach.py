@@ -10,7 +10,6 @@ cluster junction; at road speed its vehicles crossed into the cluster unseen unt
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 import pandas as pd
@@ -19,23 +18,14 @@ import sumolib
 from intersection_cosim.experiments.run import run_scenario
 from intersection_cosim.network.junction_net import load_movements
 from intersection_cosim.scenario import scenario_from_dict
+from tests.plain_nets import plain_net
 
 
 def _split_net(folder: Path) -> Path:
-    (folder / "s.nod.xml").write_text(
-        '<nodes><node id="W" x="-300" y="0"/><node id="S" x="-30" y="0" type="priority"/>'
-        '<node id="C" x="0" y="0" type="priority"/><node id="E" x="200" y="0"/>'
-        '<node id="N" x="0" y="200"/><node id="X" x="0" y="-200"/></nodes>')
-    (folder / "s.edg.xml").write_text("<edges>" + "".join(
-        f'<edge id="{e}" from="{a}" to="{b}" numLanes="{n}" speed="16.67"/>'
-        for e, a, b, n in (("WS", "W", "S", 1), ("SC", "S", "C", 3), ("CE", "C", "E", 1), ("NC", "N", "C", 1),
-                           ("CX", "C", "X", 1))) + "</edges>")
-    (folder / "s.con.xml").write_text("<connections>" + "".join(
-        f'<connection from="WS" to="SC" fromLane="0" toLane="{k}"/>' for k in range(3)) + "</connections>")
-    net = folder / "split.net.xml"
-    subprocess.run([sumolib.checkBinary("netconvert"), "-n", "s.nod.xml", "-e", "s.edg.xml", "-x", "s.con.xml",
-                    "--no-turnarounds", "-o", net.name], cwd=folder, check=True, capture_output=True)
-    return net
+    nodes = [("W", -300, 0, None), ("S", -30, 0, "priority"), ("C", 0, 0, "priority"), ("E", 200, 0, None),
+             ("N", 0, 200, None), ("X", 0, -200, None)]
+    edges = [("WS", "W", "S", 1), ("SC", "S", "C", 3), ("CE", "C", "E", 1), ("NC", "N", "C", 1), ("CX", "C", "X", 1)]
+    return plain_net(folder, "split", nodes, edges, [("WS", "SC", 0, k) for k in range(3)], speed=16.67)
 
 
 def test_a_vehicle_is_taken_over_before_the_lane_split_that_precedes_the_junction(tmp_path):
