@@ -37,11 +37,12 @@ def route_exit_options(sim, vid: str, pid: str, options: tuple[str, ...]) -> tup
         return options
     exit_lanes = [sim.paths[sim.movements.siblings.get((pid, o), pid)].lanes[-1] for o in options]
     route, index = sim.api.vehicle.getRoute(vid), sim.api.vehicle.getRouteIndex(vid)
+    ahead = list(route[max(index, 0):])
     exit_edge = exit_lanes[0].rsplit("_", 1)[0]
-    ahead = route[max(index, 0):]
-    if exit_edge not in ahead or ahead.index(exit_edge) + 1 >= len(ahead):
+    at = ahead.index(exit_edge) if exit_edge in ahead else len(ahead)
+    if at + 1 >= len(ahead):
         return options
-    after = ahead[ahead.index(exit_edge) + 1]
+    after = ahead[at + 1]
     keep = tuple(o for o, lane in zip(options, exit_lanes) if after in _next_edges(sim, lane))
     return keep or options
 

@@ -12,8 +12,8 @@ import numpy as np
 
 from intersection_cosim.control.base import Guest, World
 from intersection_cosim.network.by_junction import path_junction
-from intersection_cosim.sim.exit_lanes import route_exit_options
 from intersection_cosim.network.movements import OUTSIDE, READY, Movements
+from intersection_cosim.sim.exit_lanes import route_exit_options
 
 
 class Bodies(NamedTuple):
