@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import libsumo
 
+from intersection_cosim.control.safety.exit_room import exit_lane_id
 from intersection_cosim.network.by_junction import path_junction
 
 
@@ -35,7 +36,7 @@ def route_exit_options(sim, vid: str, pid: str, options: tuple[str, ...]) -> tup
     edge) there is no room for one, and SUMO stops the vehicle at the lane's end for good."""
     if len(options) < 2:
         return options
-    exit_lanes = [sim.paths[sim.movements.siblings.get((pid, o), pid)].lanes[-1] for o in options]
+    exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options]
     route, index = sim.api.vehicle.getRoute(vid), sim.api.vehicle.getRouteIndex(vid)
     ahead = list(route[max(index, 0):])
     exit_edge = exit_lanes[0].rsplit("_", 1)[0]
