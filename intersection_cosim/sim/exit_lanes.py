@@ -37,15 +37,29 @@ def route_exit_options(sim, vid: str, pid: str, options: tuple[str, ...]) -> tup
     if len(options) < 2:
         return options
     exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options]
-    route, index = sim.api.vehicle.getRoute(vid), sim.api.vehicle.getRouteIndex(vid)
-    ahead = list(route[max(index, 0):])
-    exit_edge = exit_lanes[0].rsplit("_", 1)[0]
-    at = ahead.index(exit_edge) if exit_edge in ahead else len(ahead)
-    if at + 1 >= len(ahead):
+    after = _edge_after(sim, vid, exit_lanes[0].rsplit("_", 1)[0])
+    if after is None:
         return options
-    after = ahead[at + 1]
     keep = tuple(o for o, lane in zip(options, exit_lanes) if after in _next_edges(sim, lane))
     return keep or options
+
+
+def route_continues(sim, vid: str, pid: str) -> bool:
+    """Whether ``vid``'s route goes on from an exit lane of path ``pid``'s movement (or ends on its
+    exit edge): at a lane split the lane a SUMO driver takes is one from which its route goes on."""
+    options = sim.movements.options(pid)
+    exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options] or [sim.paths[pid].lanes[-1]]
+    after = _edge_after(sim, vid, exit_lanes[0].rsplit("_", 1)[0])
+    return after is None or any(after in _next_edges(sim, lane) for lane in exit_lanes)
+
+
+def _edge_after(sim, vid: str, edge: str) -> str | None:
+    """The edge of ``vid``'s route (read from SUMO, from where it is now) after ``edge``; None
+    where the route ends on ``edge`` or does not hold it."""
+    route, index = sim.api.vehicle.getRoute(vid), sim.api.vehicle.getRouteIndex(vid)
+    ahead = list(route[max(index, 0):])
+    at = ahead.index(edge) if edge in ahead else len(ahead)
+    return ahead[at + 1] if at + 1 < len(ahead) else None
 
 
 def _next_edges(sim, lane: str) -> frozenset[str]:

@@ -30,7 +30,7 @@ from intersection_cosim.network.movements import PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.sim.backend import LIBSUMO, SumoBackend, sumo_version, traci_backend
 from intersection_cosim.sim.collisions import CollisionRecord, step_collisions
-from intersection_cosim.sim.exit_lanes import arrive_switched, switch_exit_lane, take_exit_choices
+from intersection_cosim.sim.exit_lanes import arrive_switched, route_continues, switch_exit_lane, take_exit_choices
 from intersection_cosim.sim.lane_change_hold import LaneChangeHold
 from intersection_cosim.sim.onboard import OnboardGuard
 from intersection_cosim.sim.people import CrossingPeople
@@ -238,7 +238,7 @@ class SumoSimulation:
             self.current_path[vid] = pid
             return
         if role == READY and info.intended_path is None:
-            pid = self._approach_path(lane, info)
+            pid = self._approach_path(lane, info, vid)
             if pid is not None and self._within_range(vid, lane, self.paths[pid]):
                 before = self.current_path.get(vid)
                 if before is not None and before != pid and lane == self.paths[before].lanes[-1]:
@@ -255,16 +255,23 @@ class SumoSimulation:
         elif lane not in self.paths[current].lanes:
             self.left_paths[vid] = self.current_path.pop(vid)  # left the managed junction's paths
 
-    def _approach_path(self, lane: str, info: VehicleInfo) -> str | None:
+    def _approach_path(self, lane: str, info: VehicleInfo, vid: str | None = None) -> str | None:
         """The path of a vehicle on approach lane ``lane`` whose route leaves by the path's exit
-        edge: its chosen exit lane if it has one there, else the movement's preferred one."""
-        for pid in self._approach_paths.get(lane, ()):
-            if self.paths[pid].exit_arm in info.route:
-                exit_lane = info.exit_lane_at(path_junction(self.movements, pid))
-                if exit_lane is not None:
-                    return self.movements.siblings.get((pid, exit_lane), pid)
-                return self.movements.sibling(pid, self.movements.preferred(pid))
-        return None
+        edge: its chosen exit lane if it has one there, else the movement's preferred one. Before
+        a lane split (paths from several stop-line lanes), of a route-file vehicle ``vid`` the one
+        from which its route goes on (:func:`~intersection_cosim.sim.exit_lanes.route_continues`):
+        SUMO's driver takes that lane at the split."""
+        candidates = [pid for pid in self._approach_paths.get(lane, ()) if self.paths[pid].exit_arm in info.route]
+        if not candidates:
+            return None
+        pid = candidates[0]
+        if vid is not None and info.intended_path is None and len(
+                {self.paths[c].lanes[self.paths[c].stop_index - 1] for c in candidates}) > 1:
+            pid = next((c for c in candidates if route_continues(self, vid, c)), pid)
+        exit_lane = info.exit_lane_at(path_junction(self.movements, pid))
+        if exit_lane is not None:
+            return self.movements.siblings.get((pid, exit_lane), pid)
+        return self.movements.sibling(pid, self.movements.preferred(pid))
 
     def _within_range(self, vid: str, lane: str, path: MovementPath) -> bool:
         """Whether ``vid`` on ``lane`` of ``path`` is within ``control_range`` of its stop line."""
@@ -331,7 +338,7 @@ class SumoSimulation:
     def approach_path(self, lane: str, vid: str) -> str | None:
         """The managed path vehicle ``vid`` will take from approach lane ``lane`` (None: none)."""
         info = self.vehicles.get(vid)
-        return None if info is None else self._approach_path(lane, info)
+        return None if info is None else self._approach_path(lane, info, vid)
 
     def junction_bodies(self) -> Bodies:
         """The bodies of every vehicle in and around the managed junctions (sim/snapshot.py)."""
