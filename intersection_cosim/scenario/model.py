@@ -163,9 +163,9 @@ class NetworkSettings:
     junctions: tuple[str, ...] = (PAPER_JUNCTION,)  # [-] ids of the net's junctions the controller manages
     signals: str = "off"  # [-] traffic-light junctions among them: "off" = run unsignalized, "on" = keep the lights
     control_range: float = 100.0  # [m] upstream of a junction where the controller takes a vehicle over
-    desired_speed: str = "v_max"  # [-] what a vehicle of the user's route files desires (J_e, Eq. 24): "v_max" =
-    #                               [model] v_max everywhere; "road" = the speed limit of its lane into each managed
-    #                               junction, at most its vType's maxSpeed, as SUMO's drivers (decision record 047)
+    desired_speed: str = "road"  # [-] what a vehicle of the user's route files desires (J_e, Eq. 24): "road" = the
+    #                              speed limit of its lane into each managed junction, at most its vType's maxSpeed,
+    #                              as SUMO's drivers; "v_max" = [model] v_max everywhere (decision records 047, 050)
     routes: tuple[str, ...] = ()  # [-] absolute paths of the user's own SUMO route files, in SUMO's order
     sumocfg: str | None = None  # [-] absolute path of the user's .sumocfg the other fields came from (None: none)
     additional: tuple[str, ...] = ()  # [-] absolute paths of SUMO additional files (detectors, programmes)

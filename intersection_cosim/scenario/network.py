@@ -237,7 +237,7 @@ def network_settings(src: str, table: Any, base: Path) -> NetworkSettings:
     settings = NetworkSettings(file=net_file, junctions=junctions,
                                signals=_signals(src, table.get("signals", "off")),
                                control_range=_control_range(src, table.get("control_range", 100.0)), routes=routes,
-                               desired_speed=_desired_speed(src, table.get("desired_speed", "v_max")),
+                               desired_speed=_desired_speed(src, table.get("desired_speed", NetworkSettings.desired_speed)),
                                sumocfg=None if cfg is None else cfg.path,
                                additional=additional, sumocfg_loading=loading,
                                sumocfg_begin=None if cfg is None else cfg.begin,

@@ -88,7 +88,7 @@ def _run(folder: Path, net: Path, routes: Path, control_range: float, v2x: dict 
     data = {"scenario": {"name": "pattern", "duration": 30.0, "drain": 60.0, "seed": 1},
             "controller": {"kind": "nash", "budget_ms": 2000.0},
             "network": {"file": str(net), "junctions": list(junctions), "control_range": control_range,
-                        "routes": str(routes)}}
+                        "routes": str(routes), "desired_speed": "v_max"}}  # the patterns are timed for 10 m/s
     if v2x is not None:
         data["v2x"] = v2x
     out = folder / "run"
@@ -401,7 +401,8 @@ def _right_hook(folder: Path, crossing: bool):
                       'departLane="1" departPos="60" departSpeed="10"><route edges="WA AS"/></vehicle>\n</routes>\n')
     data = {"scenario": {"name": "right_hook", "duration": 30.0, "drain": 30.0, "seed": 1},
             "controller": {"kind": "nash", "budget_ms": 2000.0, "onboard": {"crossing": crossing}},
-            "network": {"file": str(net), "junctions": ["A"], "routes": str(routes)}}
+            "network": {"file": str(net), "junctions": ["A"], "routes": str(routes),
+                        "desired_speed": "v_max"}}  # the scene is timed for an AV at 10 m/s
     out = folder / "run"
     summary = run_scenario(scenario_from_dict(data, "<right hook>"), out)
     return summary, pd.read_csv(out / "trajectories.csv"), read_collisions(out / "collisions.xml")

@@ -264,19 +264,19 @@ def test_junctions_all_is_every_manageable_junction_and_a_wrong_word_is_an_error
     assert "network.junctions" in str(err.value) and "every" in str(err.value)
 
 
-def test_desired_speed_is_v_max_by_default_and_a_wrong_word_or_a_generated_net_is_named(tmp_path):
+def test_desired_speed_is_road_by_default_and_a_wrong_word_or_a_generated_net_is_named(tmp_path):
     from intersection_cosim.errors import InputError
 
     path = tmp_path / "cross.toml"
     path.write_text(CROSS_SCENARIO)
-    assert load_scenario(path).network.desired_speed == "v_max"
-    path.write_text(CROSS_SCENARIO.replace("control_range = 80.0", 'control_range = 80.0\ndesired_speed = "road"'))
     assert load_scenario(path).network.desired_speed == "road"
+    path.write_text(CROSS_SCENARIO.replace("control_range = 80.0", 'control_range = 80.0\ndesired_speed = "v_max"'))
+    assert load_scenario(path).network.desired_speed == "v_max"
     path.write_text(CROSS_SCENARIO.replace("control_range = 80.0", 'control_range = 80.0\ndesired_speed = "fast"'))
     with pytest.raises(InputError) as err:
         load_scenario(path)
     assert "network.desired_speed" in str(err.value) and "fast" in str(err.value)
     with pytest.raises(InputError) as err:  # the generated net has no route-file vehicles
-        scenario_from_dict({"network": {"desired_speed": "road"},
+        scenario_from_dict({"network": {"desired_speed": "v_max"},
                             "flow": [{"approach": "south", "movement": "left", "rate": 100, "kappa": 0.5}]})
     assert "network.desired_speed" in str(err.value) and "needs network.file" in str(err.value)
