@@ -103,6 +103,7 @@ class SumoSimulation:
     #   managed junctions, each with the junctions its edge starts and ends at
     _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
+    _split_paths: dict[str, dict[str, str]] = field(default_factory=dict)  # vid -> {lane before a split: its path}
     _hold: LaneChangeHold | None = None  # no lane change with the body in a managed junction (made by start())
     _ever_taken: set[str] = field(default_factory=set)  # vehicles a controller has taken over
 
@@ -200,6 +201,7 @@ class SumoSimulation:
             self.states.pop(vid, None)
             self.commands.pop(vid, None)
             self.owner.pop(vid, None)
+            self._split_paths.pop(vid, None)
         results = self.api.vehicle.getAllSubscriptionResults()
         for vid, res in results.items():
             self.states[vid] = res
@@ -267,7 +269,10 @@ class SumoSimulation:
         pid = candidates[0]
         if vid is not None and info.intended_path is None and len(
                 {self.paths[c].lanes[self.paths[c].stop_index - 1] for c in candidates}) > 1:
-            pid = next((c for c in candidates if route_continues(self, vid, c)), pid)
+            known = self._split_paths.setdefault(vid, {})  # its route is read once per such lane
+            if lane not in known:
+                known[lane] = next((c for c in candidates if route_continues(self, vid, c)), pid)
+            pid = known[lane]
         exit_lane = info.exit_lane_at(path_junction(self.movements, pid))
         if exit_lane is not None:
             return self.movements.siblings.get((pid, exit_lane), pid)
