@@ -335,14 +335,26 @@ def _junction_section(folder: Path, summary: dict, steps: pd.DataFrame, figs: Pa
     net = folder / NET_FILE
     movements = load_movements(net, tuple(network["junctions"]), network["control_range"])
     traj = pd.read_csv(trajectories_file(folder), usecols=["vehicle", "path", "speed"], dtype={"vehicle": str})
-    v_free = float(settings.get("model", {}).get("v_max", 10.0))  # [m/s]
+    v_max = float(settings.get("model", {}).get("v_max", 10.0))  # [m/s]
+    v_free, against = _free_speeds(network, movements, v_max)
     table = junction_table(steps, traj, movements, settings["controller"]["period"], v_free)
     figures.append(("junctions coloured by the mean delay of the vehicles that passed them",
                     junction_delay_figure(net, table, figs / "junction_delay.png", f"Mean delay per junction: {title}")))
     return ["## Junctions", "",
-            f"One controller per junction. Delay: time lost against {v_free:g} m/s while on the junction's "
+            f"One controller per junction. Delay: time lost against {against} while on the junction's "
             "movement paths (control range, junction, exit lane); compute time per junction and control step.",
             "", markdown_table(table), ""]
+
+
+def _free_speeds(network: dict, movements, v_max: float) -> tuple[float | dict[str, float], str]:
+    """The free speed [m/s] a junction's delay is counted against, with its words for the report:
+    the model's v_max, or, where the user's route-file vehicles desire their roads' limits
+    ([network] desired_speed "road"; a summary without the key is older, of "v_max"), each path's
+    approach lane limit, as they do."""
+    if not network.get("routes") or network.get("desired_speed", "v_max") != "road":
+        return v_max, f"{v_max:g} m/s"
+    free = {pid: p.speed_limits[p.stop_index - 1] if p.speed_limits else v_max for pid, p in movements.paths.items()}
+    return free, "the speed limit of each approach lane (the route-file vehicles' desired speed)"
 
 
 def _engineer_section(folder: Path, summary: dict, figs: Path, figures: list, title: str) -> list[str]:
