@@ -53,6 +53,19 @@ def route_continues(sim, vid: str, pid: str) -> bool:
     return after is None or any(after in _next_edges(sim, lane) for lane in exit_lanes)
 
 
+def split_choice(sim, vid: str, lane: str, candidates: list[str]) -> str:
+    """The path of ``candidates`` (paths from approach lane ``lane`` whose exit edge ``vid``'s route
+    holds) it takes: where they start from several stop-line lanes (a lane split ahead), the first
+    from which its route goes on (:func:`route_continues`), read once per vehicle and lane
+    (``sim.split_paths``); else the first."""
+    if len({sim.paths[c].lanes[sim.paths[c].stop_index - 1] for c in candidates}) < 2:
+        return candidates[0]
+    known = sim.split_paths.setdefault(vid, {})
+    if lane not in known:
+        known[lane] = next((c for c in candidates if route_continues(sim, vid, c)), candidates[0])
+    return known[lane]
+
+
 def _edge_after(sim, vid: str, edge: str) -> str | None:
     """The edge of ``vid``'s route (read from SUMO, from where it is now) after ``edge``; None
     where the route ends on ``edge`` or does not hold it."""

@@ -30,7 +30,7 @@ from intersection_cosim.network.movements import PASSING, READY, Movements
 from intersection_cosim.network.paths import MovementPath
 from intersection_cosim.sim.backend import LIBSUMO, SumoBackend, sumo_version, traci_backend
 from intersection_cosim.sim.collisions import CollisionRecord, step_collisions
-from intersection_cosim.sim.exit_lanes import arrive_switched, route_continues, switch_exit_lane, take_exit_choices
+from intersection_cosim.sim.exit_lanes import arrive_switched, split_choice, switch_exit_lane, take_exit_choices
 from intersection_cosim.sim.lane_change_hold import LaneChangeHold
 from intersection_cosim.sim.onboard import OnboardGuard
 from intersection_cosim.sim.people import CrossingPeople
@@ -103,7 +103,7 @@ class SumoSimulation:
     #   managed junctions, each with the junctions its edge starts and ends at
     _scale: dict[str, float] = field(default_factory=dict)  # lane -> its shape's length / SUMO's length (see arc)
     _approach_paths: dict[str, list[str]] = field(default_factory=dict)  # lane -> paths it approaches
-    _split_paths: dict[str, dict[str, str]] = field(default_factory=dict)  # vid -> {lane before a split: its path}
+    split_paths: dict[str, dict[str, str]] = field(default_factory=dict)  # vid -> {lane before a split: its path}
     _hold: LaneChangeHold | None = None  # no lane change with the body in a managed junction (made by start())
     _ever_taken: set[str] = field(default_factory=set)  # vehicles a controller has taken over
 
@@ -201,7 +201,7 @@ class SumoSimulation:
             self.states.pop(vid, None)
             self.commands.pop(vid, None)
             self.owner.pop(vid, None)
-            self._split_paths.pop(vid, None)
+            self.split_paths.pop(vid, None)
         results = self.api.vehicle.getAllSubscriptionResults()
         for vid, res in results.items():
             self.states[vid] = res
@@ -258,21 +258,12 @@ class SumoSimulation:
             self.left_paths[vid] = self.current_path.pop(vid)  # left the managed junction's paths
 
     def _approach_path(self, lane: str, info: VehicleInfo, vid: str | None = None) -> str | None:
-        """The path of a vehicle on approach lane ``lane`` whose route leaves by the path's exit
-        edge: its chosen exit lane if it has one there, else the movement's preferred one. Before
-        a lane split (paths from several stop-line lanes), of a route-file vehicle ``vid`` the one
-        from which its route goes on (:func:`~intersection_cosim.sim.exit_lanes.route_continues`):
-        SUMO's driver takes that lane at the split."""
+        """The path from approach lane ``lane`` whose exit edge the route holds (before a lane split, of
+        route-file vehicle ``vid``: exit_lanes.split_choice), to its chosen exit lane, else the preferred."""
         candidates = [pid for pid in self._approach_paths.get(lane, ()) if self.paths[pid].exit_arm in info.route]
         if not candidates:
             return None
-        pid = candidates[0]
-        if vid is not None and info.intended_path is None and len(
-                {self.paths[c].lanes[self.paths[c].stop_index - 1] for c in candidates}) > 1:
-            known = self._split_paths.setdefault(vid, {})  # its route is read once per such lane
-            if lane not in known:
-                known[lane] = next((c for c in candidates if route_continues(self, vid, c)), pid)
-            pid = known[lane]
+        pid = candidates[0] if vid is None or info.intended_path else split_choice(self, vid, lane, candidates)
         exit_lane = info.exit_lane_at(path_junction(self.movements, pid))
         if exit_lane is not None:
             return self.movements.siblings.get((pid, exit_lane), pid)
@@ -309,8 +300,7 @@ class SumoSimulation:
         if self.commands.pop(vid, None) is not None and vid in self.states:
             self.api.vehicle.setSpeed(vid, -1)
             self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
-        info = self.vehicles.get(vid)
-        if info is not None and info.intended_path is None:
+        if self.vehicles.get(vid) is not None and self.vehicles[vid].intended_path is None:
             self.taken.discard(vid)  # on any net it may be taken over at the next managed junction
 
     def _adopt(self, vid: str) -> VehicleInfo:
