@@ -36,21 +36,26 @@ def route_exit_options(sim, vid: str, pid: str, options: tuple[str, ...]) -> tup
     edge) there is no room for one, and SUMO stops the vehicle at the lane's end for good."""
     if len(options) < 2:
         return options
-    exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options]
-    after = _edge_after(sim, vid, exit_lanes[0].rsplit("_", 1)[0])
-    if after is None:
+    leads_on = _leading_on(sim, vid, pid, options)
+    if leads_on is None:
         return options
-    keep = tuple(o for o, lane in zip(options, exit_lanes) if after in _next_edges(sim, lane))
+    keep = tuple(o for o, ok in zip(options, leads_on) if ok)
     return keep or options
 
 
 def route_continues(sim, vid: str, pid: str) -> bool:
     """Whether ``vid``'s route goes on from an exit lane of path ``pid``'s movement (or ends on its
     exit edge): at a lane split the lane a SUMO driver takes is one from which its route goes on."""
-    options = sim.movements.options(pid)
-    exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options] or [sim.paths[pid].lanes[-1]]
+    leads_on = _leading_on(sim, vid, pid, sim.movements.options(pid))
+    return leads_on is None or any(leads_on)
+
+
+def _leading_on(sim, vid: str, pid: str, options: tuple[str, ...]) -> list[bool] | None:
+    """Per exit lane of ``options`` (of path ``pid``'s movement), whether it links to the edge of
+    ``vid``'s route after the exit edge; None where the route ends there (or does not hold it)."""
+    exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options]
     after = _edge_after(sim, vid, exit_lanes[0].rsplit("_", 1)[0])
-    return after is None or any(after in _next_edges(sim, lane) for lane in exit_lanes)
+    return None if after is None else [after in _next_edges(sim, lane) for lane in exit_lanes]
 
 
 def split_choice(sim, vid: str, lane: str, candidates: list[str]) -> str:

@@ -257,13 +257,13 @@ class SumoSimulation:
         elif lane not in self.paths[current].lanes:
             self.left_paths[vid] = self.current_path.pop(vid)  # left the managed junction's paths
 
-    def _approach_path(self, lane: str, info: VehicleInfo, vid: str | None = None) -> str | None:
+    def _approach_path(self, lane: str, info: VehicleInfo, vid: str) -> str | None:
         """The path from approach lane ``lane`` whose exit edge the route holds (before a lane split, of
         route-file vehicle ``vid``: exit_lanes.split_choice), to its chosen exit lane, else the preferred."""
         candidates = [pid for pid in self._approach_paths.get(lane, ()) if self.paths[pid].exit_arm in info.route]
         if not candidates:
             return None
-        pid = candidates[0] if vid is None or info.intended_path else split_choice(self, vid, lane, candidates)
+        pid = candidates[0] if info.intended_path else split_choice(self, vid, lane, candidates)
         exit_lane = info.exit_lane_at(path_junction(self.movements, pid))
         if exit_lane is not None:
             return self.movements.siblings.get((pid, exit_lane), pid)
@@ -300,7 +300,7 @@ class SumoSimulation:
         if self.commands.pop(vid, None) is not None and vid in self.states:
             self.api.vehicle.setSpeed(vid, -1)
             self.api.vehicle.setSpeedMode(vid, SPEED_MODE_SUMO)
-        if self.vehicles.get(vid) is not None and self.vehicles[vid].intended_path is None:
+        if (info := self.vehicles.get(vid)) is not None and info.intended_path is None:
             self.taken.discard(vid)  # on any net it may be taken over at the next managed junction
 
     def _adopt(self, vid: str) -> VehicleInfo:
