@@ -21,7 +21,7 @@ import numpy as np
 from intersection_cosim.control.base import World
 from intersection_cosim.control.game.plan_memory import human_forecast
 from intersection_cosim.control.game.relations import Relations
-from intersection_cosim.control.safety.kinematics import creep_acceleration, stopping_acceleration, zone_exit
+from intersection_cosim.control.safety.kinematics import block_starts, creep_acceleration, stopping_acceleration, zone_exit
 from intersection_cosim.control.safety.kinematics import CREEP_CLEARANCE
 from intersection_cosim.control.safety.settings import SafetySettings
 from intersection_cosim.games.problem import Plan
@@ -84,6 +84,19 @@ class StepContext:
         if world.guest is None:
             return frozenset()
         return frozenset(vid for vid, g in zip(world.ids, world.guest) if g)
+
+    @functools.cached_property
+    def block_in(self) -> tuple[np.ndarray, np.ndarray]:
+        """(len(guarded),) [m] each way, where the block of a guarded pair's zone starts on each
+        vehicle's path: its zones of this step's guarded crossings chain into one block where they
+        overlap or leave no room to stand between them (``CREEP_CLEARANCE`` past one and before
+        the next), so a vehicle that waits for a crossing can stand in none of its crossings."""
+        pairs, guarded = self.relations.pairs, self.guarded
+        zone_i, zone_j = pairs.zone_i[guarded], pairs.zone_j[guarded]  # [m]
+        starts = block_starts(np.concatenate((pairs.ri[guarded], pairs.rj[guarded])),
+                              np.concatenate((zone_i[:, 0], zone_j[:, 0])), np.concatenate((zone_i[:, 1], zone_j[:, 1])),
+                              2.0 * CREEP_CLEARANCE)
+        return starts[:len(guarded)], starts[len(guarded):]
 
     # --- braking -----------------------------------------------------------------------------
     def brake(self, k: int) -> float:

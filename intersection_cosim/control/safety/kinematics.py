@@ -109,6 +109,26 @@ def zone_exit(pairs, row: int, s: float, enter: float, gap: float) -> float | No
     return out
 
 
+def block_starts(rows: np.ndarray, z_in: np.ndarray, z_out: np.ndarray, join: float) -> np.ndarray:
+    """[m] per zone (path row ``rows[n]``, front arc lengths ``z_in[n]`` to ``z_out[n]``), the start
+    of its block: the row's zones that overlap or lie less than ``join`` [m] apart chain into one
+    block, since a vehicle standing between two of them would stand inside one. A zone with a
+    non-finite end is a block of its own."""
+    starts = np.array(z_in, float, copy=True)
+    ok = np.isfinite(z_in) & np.isfinite(z_out)
+    if ok.sum() < 2:
+        return starts
+    idx = np.flatnonzero(ok)
+    idx = idx[np.lexsort((z_in[idx], rows[idx]))]
+    r, a, b = rows[idx].astype(float), z_in[idx], z_out[idx]
+    shift = (np.abs(b).max() + np.abs(a).max() + 1.0) * 2.0 * r  # [m] keeps the running end within a row
+    reach = np.maximum.accumulate(b + shift) - shift  # [m] farthest end so far in the row
+    new = np.ones(len(idx), bool)
+    new[1:] = (r[1:] != r[:-1]) | (a[1:] - reach[:-1] >= join)
+    starts[idx] = a[new][np.cumsum(new) - 1]
+    return starts
+
+
 def creep_acceleration(s: float, v: float, target: float, accel: float, period: float) -> float:
     """[m/s^2] at most ``accel`` [m/s^2], the acceleration over one ``period`` [s] that drives a
     slow vehicle at ``s`` [m] and ``v`` [m/s] on to ``target`` [m] and lets it stop there

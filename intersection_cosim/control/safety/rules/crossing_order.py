@@ -2,7 +2,10 @@
 ``time_gap`` apart from that of every vehicle ranking ahead of it there, or it can still stop
 short of the zone; the rank is a total order (the entry queue inside the junction, then time to
 the crossing), so waits cannot form a cycle, and a vehicle is never made to stop inside a zone in
-the path of one that cannot yield.
+the path of one that cannot yield. A vehicle's zones that overlap, or leave no room to stand
+between them, are one block, and a vehicle stays out of a crossing by stopping before its block:
+one that waits for a crossing never stands in another crossing, whose vehicle would then wait for
+it and could close a cycle the ranks do not see. Once in the block it cannot stay out of it.
 
 Trigger: a guarded crossing (a cross or confluence pair of the rows each vehicle takes, until one
 has left its zone) whose two occupancy intervals, by this look's plans (braked and clearing
@@ -10,12 +13,12 @@ vehicles' plans replaced), come closer than ``time_gap`` (``game_gap_share`` of 
 that plays its game this step: its margin is the game's).
 
 Action: the lower-ranked vehicle stays out: it stops ``margin`` before its stop line if it has
-not reached it (it enters the junction only to clear it), else before the zone (``human_margin``
-before a human's), and one standing in the junction inside another of its crossing zones that it
+not reached it (it enters the junction only to clear it), else before the zone's block
+(``human_margin`` before a human's), and one standing in the junction inside another of its crossing zones that it
 can leave short of this one drives out of it and stands between the two. If it cannot stay out
 the higher-ranked one does, if it can, and waits for it (``box_clear`` drives it on if it
-stands in the zone). Both committed: the lower-ranked one holds back as hard as
-it may, unless that would stop it in the crossing while the other is still coming, or in a human's
+stands in the block). Both committed: the lower-ranked one holds back as hard as
+it may and waits for the other (``box_clear`` again), unless that would stop it in the crossing while the other is still coming, or in a human's
 way: then it drives out. A human is never made to yield (nothing commands it); it ranks ahead of
 every AV not yet in the junction, behind those inside. A guest (a vehicle another managed
 junction commands, coming over a short link) ranks as an AV not yet in: its cap goes to its owner. The pair becomes an event of the ETM for
@@ -52,6 +55,7 @@ class _Crossing(NamedTuple):
     k: int  # World index
     row: int
     enter: float  # [m] front arc length where its zone starts
+    block: float  # [m] ... where the block of its zones holding this one starts (<= enter)
 
 
 def maybe_close(ctx: StepContext, plans) -> tuple[np.ndarray, tuple | None]:
@@ -92,16 +96,20 @@ def maybe_close(ctx: StepContext, plans) -> tuple[np.ndarray, tuple | None]:
     return ~(apart & ok), (np.where(ok, in_i, np.nan), out_i, in_j, out_j)
 
 
-def _ranked(ctx: StepContext, step: FilterStep, lat: Lateral, ki: int, kj: int, times: tuple) -> list[_Crossing]:
-    """The pair's two vehicles, lower-ranked first."""
+def _ranked(ctx: StepContext, step: FilterStep, lat: Lateral, ki: int, kj: int, times: tuple,
+            block: tuple[float, float]) -> list[_Crossing]:
+    """The pair's two vehicles, lower-ranked first; ``block``: where each one's block starts [m]."""
     ti, tj = ctx.arrival(lat.play, (lat.zone_i, lat.zone_j), ki, kj, times[0], times[2])
-    both = (_Crossing(ctx.rank(ki, ti, lat.zone_i[0], step.queue), ki, lat.ri, lat.zone_i[0]),
-            _Crossing(ctx.rank(kj, tj, lat.zone_j[0], step.queue), kj, lat.rj, lat.zone_j[0]))
+    both = (_Crossing(ctx.rank(ki, ti, lat.zone_i[0], step.queue), ki, lat.ri, lat.zone_i[0], block[0]),
+            _Crossing(ctx.rank(kj, tj, lat.zone_j[0], step.queue), kj, lat.rj, lat.zone_j[0], block[1]))
     return sorted(both, key=lambda c: (c.rank, c.k, c.row, c.enter), reverse=True)
 
 
-def guard(ctx: StepContext, step: FilterStep, lat: Lateral, occ: tuple | None = None) -> None:
-    """The rule on one guarded crossing (module docstring); ``occ``: :func:`maybe_close`'s times."""
+def guard(ctx: StepContext, step: FilterStep, lat: Lateral, occ: tuple | None = None,
+          block: tuple[float, float] | None = None) -> None:
+    """The rule on one guarded crossing (module docstring); ``occ``: :func:`maybe_close`'s times;
+    ``block``: where each vehicle's block of zones holding this crossing starts [m] (default: the
+    zones' own starts)."""
     world, st, j, ids = ctx.world, ctx.settings, ctx.junction, ctx.world.ids
     ki, kj = int(ctx.relations.rows.vehicle[lat.ri]), int(ctx.relations.rows.vehicle[lat.rj])
     pi, pj = ctx.plan_of(ki, step.plans, kj), ctx.plan_of(kj, step.plans, ki)
@@ -115,20 +123,20 @@ def guard(ctx: StepContext, step: FilterStep, lat: Lateral, occ: tuple | None = 
         return  # the plans keep the crossing clear
     if lat.live and not (world.is_human(ki) or world.is_human(kj)):
         step.events.add((min(ids[ki], ids[kj]), max(ids[ki], ids[kj])))
-    lower_first = _ranked(ctx, step, lat, ki, kj, occ)
+    lower_first = _ranked(ctx, step, lat, ki, kj, occ, block or (lat.zone_i[0], lat.zone_j[0]))
     for n, c in enumerate(lower_first):
         other = lower_first[1 - n]
         if world.is_human(c.k):  # never made to yield; ranked below an AV in the box, SUMO makes it wait
             if n == 0:
-                step.waits.append(Wait(c.k, other.k, other.enter))
+                step.waits.append(Wait(c.k, other.k, other.block))
                 return
             continue
         margin = st.human_margin if world.is_human(other.k) else st.margin  # [m]
-        a = ctx.stay_out(c.k, float(j.s_stop[ctx.relations.rows.pidx[c.row]]), c.enter, margin,
+        a = ctx.stay_out(c.k, float(j.s_stop[ctx.relations.rows.pidx[c.row]]), c.block, margin,
                          (ctx.relations.pairs, c.row))
         if a is not None:
             step.lower(ids[c.k], a, NAME)
-            step.waits.append(Wait(c.k, other.k, other.enter))  # either way round: box_clear ends it
+            step.waits.append(Wait(c.k, other.k, other.block))  # either way round: box_clear ends it
             return
     _committed(ctx, step, lat, lower_first)
 
@@ -147,13 +155,15 @@ def _committed(ctx: StepContext, step: FilterStep, lat: Lateral, lower_first: li
         step.drive_out(ids[k], NAME)
         return
     step.lower(ids[k], max(ctx.brake(k), -float(world.v[k]) / ctx.junction.period), NAME)
+    step.waits.append(Wait(k, other.k, other.block))  # box_clear drives the other on if it stands there
 
 
 def run(ctx: StepContext, step: FilterStep) -> None:
     close, occ = maybe_close(ctx, step.plans)
-    pairs = ctx.relations.pairs
+    pairs, (block_i, block_j) = ctx.relations.pairs, ctx.block_in
     for n in np.flatnonzero(close):
-        guard(ctx, step, pairs.at(int(ctx.guarded[n])), None if occ is None else tuple(float(x[n]) for x in occ))
+        guard(ctx, step, pairs.at(int(ctx.guarded[n])), None if occ is None else tuple(float(x[n]) for x in occ),
+              (float(block_i[n]), float(block_j[n])))
 
 
 RULE = Rule(NAME, SAFETY, run, each_look=True)
