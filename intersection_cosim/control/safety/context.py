@@ -93,9 +93,9 @@ class StepContext:
         the next), so a vehicle that waits for a crossing can stand in none of its crossings."""
         pairs, guarded = self.relations.pairs, self.guarded
         zone_i, zone_j = pairs.zone_i[guarded], pairs.zone_j[guarded]  # [m]
-        starts = block_starts(np.concatenate((pairs.ri[guarded], pairs.rj[guarded])),
-                              np.concatenate((zone_i[:, 0], zone_j[:, 0])), np.concatenate((zone_i[:, 1], zone_j[:, 1])),
-                              2.0 * CREEP_CLEARANCE)
+        rows = np.concatenate((pairs.ri[guarded], pairs.rj[guarded]))
+        starts = block_starts(rows, np.concatenate((zone_i[:, 0], zone_j[:, 0])),
+                              np.concatenate((zone_i[:, 1], zone_j[:, 1])), 2.0 * CREEP_CLEARANCE)
         return starts[:len(guarded)], starts[len(guarded):]
 
     # --- braking -----------------------------------------------------------------------------

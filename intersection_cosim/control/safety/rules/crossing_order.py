@@ -12,17 +12,17 @@ has left its zone) whose two occupancy intervals, by this look's plans (braked a
 vehicles' plans replaced), come closer than ``time_gap`` (``game_gap_share`` of it for a pair
 that plays its game this step: its margin is the game's).
 
-Action: the lower-ranked vehicle stays out: it stops ``margin`` before its stop line if it has
-not reached it (it enters the junction only to clear it), else before the zone's block
-(``human_margin`` before a human's), and one standing in the junction inside another of its crossing zones that it
-can leave short of this one drives out of it and stands between the two. If it cannot stay out
-the higher-ranked one does, if it can, and waits for it (``box_clear`` drives it on if it
-stands in the block). Both committed: the lower-ranked one holds back as hard as
-it may and waits for the other (``box_clear`` again), unless that would stop it in the crossing while the other is still coming, or in a human's
-way: then it drives out. A human is never made to yield (nothing commands it); it ranks ahead of
-every AV not yet in the junction, behind those inside. A guest (a vehicle another managed
-junction commands, coming over a short link) ranks as an AV not yet in: its cap goes to its owner. The pair becomes an event of the ETM for
-the next step (``[controller.policy] filter_event``).
+Action: the lower-ranked vehicle stays out: it stops ``margin`` before its stop line if it has not
+reached it (it enters the junction only to clear it), else before the zone's block (``human_margin``
+before a human's), and one standing in the junction inside another of its crossing zones that it can
+leave short of this one drives out of it and stands between the two. If it cannot stay out the
+higher-ranked one does, if it can, and waits for it (``box_clear`` drives it on if it stands in the
+block). Both committed: the lower-ranked one holds back as hard as it may and waits for the other
+(``box_clear`` again), unless that would stop it in the crossing while the other is still coming, or
+in a human's way: then it drives out. A human is never made to yield (nothing commands it); it ranks
+ahead of every AV not yet in the junction, behind those inside. A guest (a vehicle another managed
+junction commands, coming over a short link) ranks as an AV not yet in: its cap goes to its owner.
+The pair becomes an event of the ETM for the next step (``[controller.policy] filter_event``).
 
 Setting: ``[controller.safety] time_gap``, ``game_gap_share``, ``margin``, ``human_margin``,
 ``yield_order``, ``clear_speed``, ``clear_accel``.
