@@ -3,9 +3,9 @@
 short of the zone; the rank is a total order (the entry queue inside the junction, then time to
 the crossing), so waits cannot form a cycle, and a vehicle is never made to stop inside a zone in
 the path of one that cannot yield. A vehicle's zones that overlap, or leave no room to stand
-between them, are one block, and a vehicle stays out of a crossing by stopping before its block:
-one that waits for a crossing never stands in another crossing, whose vehicle would then wait for
-it and could close a cycle the ranks do not see. Once in the block it cannot stay out of it.
+between them, are one block, and a vehicle that can still stop before a crossing's block stays out
+of the crossing there: one that waits for a crossing then stands in none of its other crossings,
+whose vehicles would have to wait for it whatever the ranks say (a cycle the ranks cannot see).
 
 Trigger: a guarded crossing (a cross or confluence pair of the rows each vehicle takes, until one
 has left its zone) whose two occupancy intervals, by this look's plans (braked and clearing
@@ -13,16 +13,17 @@ vehicles' plans replaced), come closer than ``time_gap`` (``game_gap_share`` of 
 that plays its game this step: its margin is the game's).
 
 Action: the lower-ranked vehicle stays out: it stops ``margin`` before its stop line if it has not
-reached it (it enters the junction only to clear it), else before the zone's block (``human_margin``
-before a human's), and one standing in the junction inside another of its crossing zones that it can
-leave short of this one drives out of it and stands between the two. If it cannot stay out the
-higher-ranked one does, if it can, and waits for it (``box_clear`` drives it on if it stands in the
-block). Both committed: the lower-ranked one holds back as hard as it may and waits for the other
-(``box_clear`` again), unless that would stop it in the crossing while the other is still coming, or
-in a human's way: then it drives out. A human is never made to yield (nothing commands it); it ranks
-ahead of every AV not yet in the junction, behind those inside. A guest (a vehicle another managed
-junction commands, coming over a short link) ranks as an AV not yet in: its cap goes to its owner.
-The pair becomes an event of the ETM for the next step (``[controller.policy] filter_event``).
+reached it (it enters the junction only to clear it), else before the zone's block if it still can
+stop there, else before the zone (``human_margin`` before a human's), and one standing in the
+junction inside another of its crossing zones that it can leave short of this one drives out of it
+and stands between the two. If it cannot stay out the higher-ranked one does, if it can, and waits
+for it (``box_clear`` drives it on if it stands in the zone). Both committed: the lower-ranked one
+holds back as hard as it may, unless that would stop it in the crossing while the other is still
+coming, or in a human's way: then it drives out. A human is never made to yield (nothing commands
+it); it ranks ahead of every AV not yet in the junction, behind those inside. A guest (a vehicle
+another managed junction commands, coming over a short link) ranks as an AV not yet in: its cap goes
+to its owner. The pair becomes an event of the ETM for the next step (``[controller.policy]
+filter_event``).
 
 Setting: ``[controller.safety] time_gap``, ``game_gap_share``, ``margin``, ``human_margin``,
 ``yield_order``, ``clear_speed``, ``clear_accel``.
@@ -128,15 +129,17 @@ def guard(ctx: StepContext, step: FilterStep, lat: Lateral, occ: tuple | None = 
         other = lower_first[1 - n]
         if world.is_human(c.k):  # never made to yield; ranked below an AV in the box, SUMO makes it wait
             if n == 0:
-                step.waits.append(Wait(c.k, other.k, other.block))
+                step.waits.append(Wait(c.k, other.k, other.enter))
                 return
             continue
         margin = st.human_margin if world.is_human(other.k) else st.margin  # [m]
-        a = ctx.stay_out(c.k, float(j.s_stop[ctx.relations.rows.pidx[c.row]]), c.block, margin,
-                         (ctx.relations.pairs, c.row))
+        s_stop, own = float(j.s_stop[ctx.relations.rows.pidx[c.row]]), (ctx.relations.pairs, c.row)
+        a = ctx.stop_short_of(c.k, s_stop, c.block, margin, own) if c.block < c.enter else None
+        if a is None:  # in the block, or too close to stop before it: before the zone, as it can
+            a = ctx.stay_out(c.k, s_stop, c.enter, margin, own)
         if a is not None:
             step.lower(ids[c.k], a, NAME)
-            step.waits.append(Wait(c.k, other.k, other.block))  # either way round: box_clear ends it
+            step.waits.append(Wait(c.k, other.k, other.enter))  # either way round: box_clear ends it
             return
     _committed(ctx, step, lat, lower_first)
 
@@ -155,7 +158,6 @@ def _committed(ctx: StepContext, step: FilterStep, lat: Lateral, lower_first: li
         step.drive_out(ids[k], NAME)
         return
     step.lower(ids[k], max(ctx.brake(k), -float(world.v[k]) / ctx.junction.period), NAME)
-    step.waits.append(Wait(k, other.k, other.block))  # box_clear drives the other on if it stands there
 
 
 def run(ctx: StepContext, step: FilterStep) -> None:
