@@ -36,9 +36,9 @@ def test_a_vehicle_waiting_for_a_crossing_never_stands_in_the_crossing_that_over
     """X (eastbound straight) crawls 0.2 m past its stop line. Its zone with W (southbound,
     139.0-145.5 m on X's path) overlaps its zone with Z (from 143.0 m), and Z, first into the
     junction, crawls through it at 1 m/s. Told to stop 1 m before Z's zone, X would stand at 142 m inside W's
-    crossing, where W (which may already wait for Z) would have to wait for X: a cycle. X now
-    either stops before W's zone or, once in the block, goes first; both pass within 16 s and
-    never occupy their crossing at once."""
+    crossing, where W (which may already wait for Z) would have to wait for X: a cycle. X can
+    still stop before W's zone, so it now waits there; both pass within 16 s and never occupy
+    their crossing at once."""
     t = conflict_table
     x_path, w_path, z_path = "west_outer_straight_outer", "north_outer_straight_outer", "north_middle_straight_middle"
     x, w, z = t.index[x_path], t.index[w_path], t.index[z_path]
