@@ -189,6 +189,8 @@ def load_scenario(path: str | Path) -> Scenario:
         raise InputError(src, "file", src, "is a directory, not a scenario file") from None
     except PermissionError:
         raise InputError(src, "file", src, "cannot be read (permission denied)") from None
+    except OSError as exc:  # a name too long, an unreadable device, ...
+        raise InputError(src, "file", src, f"cannot be read ({exc.strerror or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(src, "toml", str(exc), "malformed TOML") from None
     except UnicodeDecodeError:

@@ -152,6 +152,16 @@ def test_missing_file(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_file_name_the_system_refuses_is_one_line(tmp_path, capsys):
+    """A shell that did not expand a brace list hands over one name longer than the system allows."""
+    name = "scenarios/{" + ",".join(f"demand_{n}" for n in range(40)) + "}.toml"
+    rc = main(["compare", name, "--controllers", "nash", "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert "cannot be read (File name too long)" in err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_unwritable_output_directory(tmp_path, capsys):
     scenario = tmp_path / "scenario.toml"
     scenario.write_text(HEADER + GOOD_VEHICLE)
