@@ -12,6 +12,10 @@ import libsumo
 from intersection_cosim.control.safety.exit_room import exit_lane_id
 from intersection_cosim.network.by_junction import path_junction
 
+LANE_CHANGE_ROOM = 25.0  # [m] an edge shorter than this leaves no room to change lanes at speed: a
+#                          lane leads on along a route only if the lane it links to on such an edge does
+LOOK_AHEAD_EDGES = 3  # [-] short edges looked through after the exit edge
+
 
 def take_exit_choices(sim, decisions) -> None:
     """Record each exit lane of ``decisions`` (a Decisions) for the managed junction whose path the
@@ -33,7 +37,9 @@ def route_exit_options(sim, vid: str, pid: str, options: tuple[str, ...]) -> tup
 
     An exit lane that does not lead on along the route must be left by a lane change; on a short
     exit edge (InTAS Ingolstadt feeds its 7-arm cluster by a 4.5 m edge with one lane per next
-    edge) there is no room for one, and SUMO stops the vehicle at the lane's end for good."""
+    edge) there is no room for one, and SUMO stops the vehicle at the lane's end for good. The
+    same holds one edge further: a lane that links only to a lane of a short next edge from
+    which the route does not go on leads nowhere either (``LANE_CHANGE_ROOM``)."""
     if len(options) < 2:
         return options
     leads_on = _leading_on(sim, vid, pid, options)
@@ -51,11 +57,27 @@ def route_continues(sim, vid: str, pid: str) -> bool:
 
 
 def _leading_on(sim, vid: str, pid: str, options: tuple[str, ...]) -> list[bool] | None:
-    """Per exit lane of ``options`` (of path ``pid``'s movement), whether it links to the edge of
-    ``vid``'s route after the exit edge; None where the route ends there (or does not hold it)."""
+    """Per exit lane of ``options`` (of path ``pid``'s movement), whether ``vid``'s route goes on
+    from it without a lane change on an edge too short for one (:func:`_goes_on`); None where the
+    route ends on the exit edge (or does not hold it)."""
     exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options]
-    after = _edge_after(sim, vid, exit_lanes[0].rsplit("_", 1)[0])
-    return None if after is None else [after in _next_edges(sim, lane) for lane in exit_lanes]
+    route = _route_ahead(sim, vid)
+    edge = exit_lanes[0].rsplit("_", 1)[0]
+    if edge not in route or route.index(edge) + 1 >= len(route):
+        return None
+    ahead = route[route.index(edge) + 1:route.index(edge) + 2 + LOOK_AHEAD_EDGES]
+    return [_goes_on(sim, lane, ahead) for lane in exit_lanes]
+
+
+def _goes_on(sim, lane: str, ahead: list[str]) -> bool:
+    """Whether ``lane`` links to ``ahead[0]`` (the route's next edge), and, where that edge is
+    shorter than ``LANE_CHANGE_ROOM``, a lane it links to there goes on along ``ahead[1:]``."""
+    targets = [t for t in _next_lanes(sim, lane) if t.rsplit("_", 1)[0] == ahead[0]]
+    if not targets:
+        return False
+    if len(ahead) < 2 or sim.api.lane.getLength(targets[0]) >= LANE_CHANGE_ROOM:
+        return True
+    return any(_goes_on(sim, t, ahead[1:]) for t in targets)
 
 
 def split_choice(sim, vid: str, lane: str, candidates: list[str]) -> str:
@@ -71,19 +93,16 @@ def split_choice(sim, vid: str, lane: str, candidates: list[str]) -> str:
     return known[lane]
 
 
-def _edge_after(sim, vid: str, edge: str) -> str | None:
-    """The edge of ``vid``'s route (read from SUMO, from where it is now) after ``edge``; None
-    where the route ends on ``edge`` or does not hold it."""
+def _route_ahead(sim, vid: str) -> list[str]:
+    """``vid``'s route (read from SUMO) from the edge it is on now."""
     route, index = sim.api.vehicle.getRoute(vid), sim.api.vehicle.getRouteIndex(vid)
-    ahead = list(route[max(index, 0):])
-    at = ahead.index(edge) if edge in ahead else len(ahead)
-    return ahead[at + 1] if at + 1 < len(ahead) else None
+    return list(route[max(index, 0):])
 
 
-def _next_edges(sim, lane: str) -> frozenset[str]:
-    """The edges ``lane``'s links lead onto (read from SUMO once per lane)."""
+def _next_lanes(sim, lane: str) -> tuple[str, ...]:
+    """The lanes ``lane``'s links lead onto (read from SUMO once per lane)."""
     if lane not in sim.lane_links:
-        sim.lane_links[lane] = frozenset(link[0].rsplit("_", 1)[0] for link in sim.api.lane.getLinks(lane))
+        sim.lane_links[lane] = tuple(link[0] for link in sim.api.lane.getLinks(lane))
     return sim.lane_links[lane]
 
 

@@ -55,3 +55,40 @@ def test_every_vehicle_is_sent_onto_an_exit_lane_its_route_goes_on_from(tmp_path
     assert set(on_cd["vehicle"]) == {f"{e}{n}" for e in want for n in range(3)}
     for vid, lanes in on_cd.groupby("vehicle")["lane"]:
         assert set(lanes) == {want[vid[:2]]}, vid  # on CD only on the lane its route goes on from
+
+
+def _fan_after_a_link_net(folder: Path) -> Path:
+    """As :func:`_fan_net`, but the exit edge CE is a 3-lane link of about 50 m whose lanes each go
+    on to one lane of the short edge EF only, and EF's lanes fan out at F."""
+    nodes = [("W", -300, 0, None), ("C", 0, 0, "priority"), ("E", 60, 0, "priority"), ("F", 72, 0, "priority"),
+             ("N", 0, 200, None), ("X", 0, -200, None), ("R", 200, -150, None), ("S", 300, 0, None),
+             ("L", 200, 150, None)]
+    edges = [("WC", "W", "C", 1), ("CE", "C", "E", 3), ("EF", "E", "F", 3), ("NC", "N", "C", 1), ("CX", "C", "X", 1),
+             ("FR", "F", "R", 1), ("FS", "F", "S", 1), ("FL", "F", "L", 1)]
+    connections = ([("WC", "CE", 0, k) for k in range(3)] + [("CE", "EF", k, k) for k in range(3)]
+                   + [("EF", e, k, 0) for k, e in enumerate(("FR", "FS", "FL"))])
+    return plain_net(folder, "fan2", nodes, edges, connections)
+
+
+def test_an_exit_lane_leads_on_only_if_the_lane_it_feeds_on_a_short_next_edge_does(tmp_path):
+    """Every lane of CE links to EF, so one edge of look-ahead keeps all three; only the lane in
+    line with the route's lane on the short EF leads on. The vehicle leaves junction C on it."""
+    from intersection_cosim.sim.exit_lanes import LANE_CHANGE_ROOM
+
+    net = _fan_after_a_link_net(tmp_path)
+    sumo_net = sumolib.net.readNet(str(net))
+    assert sumo_net.getEdge("EF").getLength() < LANE_CHANGE_ROOM <= sumo_net.getEdge("CE").getLength()
+    routes = tmp_path / "demand.rou.xml"
+    trips = "".join(f'<vehicle id="{e}{n}" type="car" depart="{6 * n + 2 * k}" departSpeed="max">'
+                    f'<route edges="WC CE EF {e}"/></vehicle>'
+                    for n in range(2) for k, e in enumerate(("FL", "FS", "FR")))
+    routes.write_text(f'<routes><vType id="car" length="4.5" width="1.8"/>{trips}</routes>')
+    data = {"scenario": {"name": "fan2", "duration": 14.0, "drain": 60.0, "seed": 1},
+            "controller": {"kind": "nash", "budget_ms": 2000.0},
+            "network": {"file": str(net), "junctions": ["C"], "routes": str(routes)}}
+    summary = run_scenario(scenario_from_dict(data, "<fan2>"), tmp_path / "run")
+    assert summary["counts"]["arrived"] == 6 and summary["counts"]["collisions"] == 0
+    traj = pd.read_csv(tmp_path / "run" / "trajectories.csv")
+    first_on_ce = traj[traj["lane"].str.startswith("CE_")].groupby("vehicle")["lane"].first()
+    want = {"FR": "CE_0", "FS": "CE_1", "FL": "CE_2"}
+    assert first_on_ce.to_dict() == {f"{e}{n}": lane for e, lane in want.items() for n in range(2)}
