@@ -63,21 +63,22 @@ def _leading_on(sim, vid: str, pid: str, options: tuple[str, ...]) -> list[bool]
     exit_lanes = [exit_lane_id(sim.movements, pid, o) for o in options]
     route = _route_ahead(sim, vid)
     edge = exit_lanes[0].rsplit("_", 1)[0]
-    if edge not in route or route.index(edge) + 1 >= len(route):
+    at = route.index(edge) if edge in route else len(route)
+    if at + 1 >= len(route):
         return None
-    ahead = route[route.index(edge) + 1:route.index(edge) + 2 + LOOK_AHEAD_EDGES]
+    ahead = route[at + 1:at + 2 + LOOK_AHEAD_EDGES]
     return [_goes_on(sim, lane, ahead) for lane in exit_lanes]
 
 
 def _goes_on(sim, lane: str, ahead: list[str]) -> bool:
     """Whether ``lane`` links to ``ahead[0]`` (the route's next edge), and, where that edge is
     shorter than ``LANE_CHANGE_ROOM``, a lane it links to there goes on along ``ahead[1:]``."""
-    targets = [t for t in _next_lanes(sim, lane) if t.rsplit("_", 1)[0] == ahead[0]]
+    targets = [(t, length) for t, length in _next_lanes(sim, lane) if t.rsplit("_", 1)[0] == ahead[0]]
     if not targets:
         return False
-    if len(ahead) < 2 or sim.api.lane.getLength(targets[0]) >= LANE_CHANGE_ROOM:
+    if len(ahead) < 2 or targets[0][1] >= LANE_CHANGE_ROOM:
         return True
-    return any(_goes_on(sim, t, ahead[1:]) for t in targets)
+    return any(_goes_on(sim, t, ahead[1:]) for t, _length in targets)
 
 
 def split_choice(sim, vid: str, lane: str, candidates: list[str]) -> str:
@@ -99,10 +100,11 @@ def _route_ahead(sim, vid: str) -> list[str]:
     return list(route[max(index, 0):])
 
 
-def _next_lanes(sim, lane: str) -> tuple[str, ...]:
-    """The lanes ``lane``'s links lead onto (read from SUMO once per lane)."""
+def _next_lanes(sim, lane: str) -> tuple[tuple[str, float], ...]:
+    """The lanes ``lane``'s links lead onto, each with its length [m] (read from SUMO once per
+    lane)."""
     if lane not in sim.lane_links:
-        sim.lane_links[lane] = tuple(link[0] for link in sim.api.lane.getLinks(lane))
+        sim.lane_links[lane] = tuple((link[0], sim.api.lane.getLength(link[0])) for link in sim.api.lane.getLinks(lane))
     return sim.lane_links[lane]
 
 

@@ -77,7 +77,7 @@ class SumoSimulation:
     owner: dict[str, str | None] = field(default_factory=dict)  # the junction whose controller commands
     #   each commanded vehicle (None: the run's one junction); a command never outlives it
     switched: set[str] = field(default_factory=set)  # vehicles moved onto another connection
-    lane_links: dict[str, tuple[str, ...]] = field(default_factory=dict)  # lane -> the lanes it leads onto (sim/exit_lanes.py)
+    lane_links: dict[str, tuple] = field(default_factory=dict)  # lane -> (next lane, [m] length) (exit_lanes.py)
     lane_change_mode: int = LANE_CHANGE_MODE_CONTROLLED  # of a controlled vehicle
     adopt_controlled: bool = True  # vehicles of the user's own route file are controlled
     adopt_road_speed: bool = False  # they desire their roads' limits (network.desired_speed "road")
