@@ -162,8 +162,11 @@ def _committed(ctx: StepContext, step: FilterStep, lat: Lateral, lower_first: li
 
 def run(ctx: StepContext, step: FilterStep) -> None:
     close, occ = maybe_close(ctx, step.plans)
+    look = np.flatnonzero(close)
+    if not len(look):
+        return
     pairs, (block_i, block_j) = ctx.relations.pairs, ctx.block_in
-    for n in np.flatnonzero(close):
+    for n in look:
         guard(ctx, step, pairs.at(int(ctx.guarded[n])), None if occ is None else tuple(float(x[n]) for x in occ),
               (float(block_i[n]), float(block_j[n])))
 
