@@ -31,21 +31,24 @@ def _fan_net(folder: Path) -> Path:
     return plain_net(folder, "fan", nodes, edges, connections)
 
 
+def _run(tmp_path: Path, net: Path, routes: list[list[str]], gap: float, duration: float) -> dict:
+    """Run ``routes`` (one vehicle each, ``gap`` [s] apart) on ``net`` with junction C managed."""
+    trips = "".join(f'<vehicle id="{r[-1]}{n // 3}" type="car" depart="{gap * n}" departSpeed="max">'
+                    f'<route edges="{" ".join(r)}"/></vehicle>' for n, r in enumerate(routes))
+    (tmp_path / "demand.rou.xml").write_text(f'<routes><vType id="car" length="4.5" width="1.8"/>{trips}</routes>')
+    data = {"scenario": {"name": net.stem, "duration": duration, "drain": 60.0, "seed": 1},
+            "controller": {"kind": "nash", "budget_ms": 2000.0},
+            "network": {"file": str(net), "junctions": ["C"], "routes": str(tmp_path / "demand.rou.xml")}}
+    return run_scenario(scenario_from_dict(data, f"<{net.stem}>"), tmp_path / "run")
+
+
 def test_every_vehicle_is_sent_onto_an_exit_lane_its_route_goes_on_from(tmp_path):
     net = _fan_net(tmp_path)
     sumo_net = sumolib.net.readNet(str(net))
     assert sumo_net.getEdge("CD").getLength() < 20.0  # [m] too short to change lanes on
     for k, edge in enumerate(("DR", "DS", "DL")):  # each lane of CD leads onto one road only
         assert [c.getTo().getID() for c in sumo_net.getEdge("CD").getLanes()[k].getOutgoing()] == [edge]
-    routes = tmp_path / "demand.rou.xml"
-    trips = "".join(f'<vehicle id="{e}{n}" type="car" depart="{6 * n + 2 * k}" departSpeed="max">'
-                    f'<route edges="WC CD {e}"/></vehicle>'
-                    for n in range(3) for k, e in enumerate(("DL", "DS", "DR")))
-    routes.write_text(f'<routes><vType id="car" length="4.5" width="1.8"/>{trips}</routes>')
-    data = {"scenario": {"name": "fan", "duration": 20.0, "drain": 60.0, "seed": 1},
-            "controller": {"kind": "nash", "budget_ms": 2000.0},
-            "network": {"file": str(net), "junctions": ["C"], "routes": str(routes)}}
-    summary = run_scenario(scenario_from_dict(data, "<fan>"), tmp_path / "run")
+    summary = _run(tmp_path, net, [["WC", "CD", e] for _n in range(3) for e in ("DL", "DS", "DR")], 2.0, 20.0)
     assert summary["counts"]["arrived"] == 9 and summary["counts"]["collisions"] == 0
     log = (tmp_path / "run" / "sumo.log").read_text()
     assert "no connection to the next edge" not in log
@@ -78,15 +81,7 @@ def test_an_exit_lane_leads_on_only_if_the_lane_it_feeds_on_a_short_next_edge_do
     net = _fan_after_a_link_net(tmp_path)
     sumo_net = sumolib.net.readNet(str(net))
     assert sumo_net.getEdge("EF").getLength() < LANE_CHANGE_ROOM <= sumo_net.getEdge("CE").getLength()
-    routes = tmp_path / "demand.rou.xml"
-    trips = "".join(f'<vehicle id="{e}{n}" type="car" depart="{6 * n + 2 * k}" departSpeed="max">'
-                    f'<route edges="WC CE EF {e}"/></vehicle>'
-                    for n in range(2) for k, e in enumerate(("FL", "FS", "FR")))
-    routes.write_text(f'<routes><vType id="car" length="4.5" width="1.8"/>{trips}</routes>')
-    data = {"scenario": {"name": "fan2", "duration": 14.0, "drain": 60.0, "seed": 1},
-            "controller": {"kind": "nash", "budget_ms": 2000.0},
-            "network": {"file": str(net), "junctions": ["C"], "routes": str(routes)}}
-    summary = run_scenario(scenario_from_dict(data, "<fan2>"), tmp_path / "run")
+    summary = _run(tmp_path, net, [["WC", "CE", "EF", e] for _n in range(2) for e in ("FL", "FS", "FR")], 2.0, 14.0)
     assert summary["counts"]["arrived"] == 6 and summary["counts"]["collisions"] == 0
     traj = pd.read_csv(tmp_path / "run" / "trajectories.csv")
     first_on_ce = traj[traj["lane"].str.startswith("CE_")].groupby("vehicle")["lane"].first()
