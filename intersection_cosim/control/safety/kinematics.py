@@ -5,6 +5,7 @@ standing inside crossing zones can get out of them. Pure functions of plans and 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -77,6 +78,49 @@ def _reach_times(positions, lengths, dt, row, target):  # pragma: no cover - com
             p0, p1 = positions[r, kk - 1], positions[r, kk]
             times[i] = dt[r] * (kk - 1 + (x - p0) / max(p1 - p0, 1e-9))
     return times, exact
+
+
+class PlanEnds(NamedTuple):
+    """Where plans end: per plan (or per pair side) its last planned state."""
+
+    s: np.ndarray  # [m] last planned front position
+    v: np.ndarray  # [m/s] last planned speed
+    t: np.ndarray  # [s] the horizon
+
+    def reach(self, target: np.ndarray, speed: np.ndarray) -> np.ndarray:
+        """[s] when the front, going on at ``speed`` [m/s] past the plan's end, reaches ``target`` [m]."""
+        return self.t + (target - self.s) / speed
+
+
+def past_horizon(times: tuple, zone_i: np.ndarray, zone_j: np.ndarray, end_i: PlanEnds, end_j: PlanEnds,
+                 block_i: np.ndarray, block_j: np.ndarray, speed: float) -> tuple:
+    """(in_i, out_i, in_j, out_j) [s], :func:`occupancy` of pairs' zones ``zone_i``, ``zone_j`` (n, 2)
+    [m], taken on past the horizon where a plan ends inside the block of its zone (``block_i``,
+    ``block_j`` [m]; inf: never) before the zone itself: a vehicle about to enter a block is then
+    checked against all of the block's crossings, not only those its horizon reaches. Its front is
+    taken to go on at its final speed, at least ``speed`` [m/s], to the zone; in such a pair a
+    plan that ends moving (at ``speed`` or more) is taken to go on at its final speed to leave its
+    zone, and a plan that ends slower may stand there (leave ``inf``)."""
+    in_i, out_i, in_j, out_j = (np.asarray(x, float) for x in times)
+    new_i = np.isinf(in_i) & (end_i.s >= block_i)
+    new_j = np.isinf(in_j) & (end_j.s >= block_j)
+    taken = new_i | new_j
+    if not taken.any():
+        return in_i, out_i, in_j, out_j
+    with np.errstate(divide="ignore", invalid="ignore"):
+        in_i = np.where(new_i, end_i.reach(zone_i[:, 0], np.maximum(end_i.v, speed)), in_i)
+        in_j = np.where(new_j, end_j.reach(zone_j[:, 0], np.maximum(end_j.v, speed)), in_j)
+        go_i = taken & np.isinf(out_i) & np.isfinite(in_i) & (end_i.v >= speed)
+        go_j = taken & np.isinf(out_j) & np.isfinite(in_j) & (end_j.v >= speed)
+        out_i = np.where(go_i, end_i.reach(zone_i[:, 1], end_i.v), out_i)
+        out_j = np.where(go_j, end_j.reach(zone_j[:, 1], end_j.v), out_j)
+    return in_i, out_i, in_j, out_j
+
+
+def plan_ends(plans) -> PlanEnds:
+    """:class:`PlanEnds` of a sequence of :class:`~intersection_cosim.games.problem.Plan`."""
+    return PlanEnds(np.array([float(p.positions[-1]) for p in plans]), np.array([float(p.speeds[-1]) for p in plans]),
+                    np.array([p.dt * (len(p.positions) - 1) for p in plans]))
 
 
 def stopping_acceleration(s: float, v: float, stop_at: float) -> float | None:

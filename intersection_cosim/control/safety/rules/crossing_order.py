@@ -6,10 +6,13 @@ the path of one that cannot yield. A vehicle's zones that overlap, or leave no r
 between them, are one block, and a vehicle that can still stop before a crossing's block stays out
 of the crossing there: one that waits for a crossing then stands in none of its other crossings,
 whose vehicles would have to wait for it whatever the ranks say (a cycle the ranks cannot see).
+A vehicle not yet in the junction whose plan reaches into a block is checked against all of the
+block's crossings, its plan taken on past the horizon at its final speed (at least
+``clear_speed``), so it enters a block only if it need not wait inside it.
 
 Trigger: a guarded crossing (a cross or confluence pair of the rows each vehicle takes, until one
 has left its zone) whose two occupancy intervals, by this look's plans (braked and clearing
-vehicles' plans replaced), come closer than ``time_gap`` (``game_gap_share`` of it for a pair
+vehicles' plans replaced; taken on past the horizon as above), come closer than ``time_gap`` (``game_gap_share`` of it for a pair
 that plays its game this step: its margin is the game's).
 
 Action: the lower-ranked vehicle stays out: it stops ``margin`` before its stop line if it has not
@@ -40,7 +43,7 @@ import numpy as np
 
 from intersection_cosim.control.game.relations import Lateral, named_pairs
 from intersection_cosim.control.safety.context import StepContext
-from intersection_cosim.control.safety.kinematics import occupancy, reach_times
+from intersection_cosim.control.safety.kinematics import PlanEnds, occupancy, past_horizon, plan_ends, reach_times
 from intersection_cosim.control.safety.rules.base import SAFETY, Rule
 from intersection_cosim.control.safety.step import FilterStep, Wait
 
@@ -74,16 +77,24 @@ def maybe_close(ctx: StepContext, plans) -> tuple[np.ndarray, tuple | None]:
     width = 1 + max((len(p.positions) for p in own if p is not None), default=1)
     pos = np.full((len(ks), width), math.inf)  # [m] padded past each plan
     lengths, dt = np.zeros(len(ks), np.intp), np.ones(len(ks))
-    usable = np.zeros(len(ks), bool)
+    usable, v_end = np.zeros(len(ks), bool), np.zeros(len(ks))  # [m/s] each plan's final speed
     for n, p in enumerate(own):
         if p is not None:
             pos[n, :len(p.positions)], lengths[n], dt[n], usable[n] = p.positions, len(p.positions), p.dt, True
+            v_end[n] = p.speeds[-1]
     a, b = np.searchsorted(ks, ki), np.searchsorted(ks, kj)
     zone_i, zone_j = pairs.zone_i[guarded], pairs.zone_j[guarded]  # [m]
     times, exact = reach_times(pos, lengths, dt, np.concatenate((a, a, b, b)),
                                np.concatenate((zone_i[:, 0], zone_i[:, 1], zone_j[:, 0], zone_j[:, 1])))
     in_i, out_i, in_j, out_j = np.split(times, 4)
     e1, e2, e3, e4 = np.split(exact, 4)
+    n_end = np.maximum(lengths - 1, 0)
+    ends = PlanEnds(pos[np.arange(len(ks)), n_end], v_end, dt * n_end)  # per plan in ks
+    out = np.array([world.ids[int(k)] not in ctx.entered for k in ks])  # not yet in the junction
+    block_i, block_j = ctx.block_in  # [m]
+    in_i, out_i, in_j, out_j = past_horizon(
+        (in_i, out_i, in_j, out_j), zone_i, zone_j, PlanEnds(*(x[a] for x in ends)), PlanEnds(*(x[b] for x in ends)),
+        np.where(out[a], block_i, math.inf), np.where(out[b], block_j, math.inf), st.clear_speed)
     gap = st.time_gap  # [s]
     if st.game_gap_share != 1.0 and ctx.games:
         gap = np.where(named_pairs(world.ids, ctx.games, ki, kj), st.gap_for(True), gap)
@@ -116,15 +127,20 @@ def guard(ctx: StepContext, step: FilterStep, lat: Lateral, occ: tuple | None = 
     pi, pj = ctx.plan_of(ki, step.plans, kj), ctx.plan_of(kj, step.plans, ki)
     if pi is None or pj is None:
         return
+    block = block or (lat.zone_i[0], lat.zone_j[0])
     if occ is None or math.isnan(occ[0]):
-        occ = (*occupancy(pi, *lat.zone_i), *occupancy(pj, *lat.zone_j))
+        reach = [np.array([math.inf if ids[k] in ctx.entered else b]) for k, b in ((ki, block[0]), (kj, block[1]))]
+        occ = tuple(float(x[0]) for x in past_horizon(
+            [np.array([t]) for t in (*occupancy(pi, *lat.zone_i), *occupancy(pj, *lat.zone_j))],
+            np.array([lat.zone_i]), np.array([lat.zone_j]),
+            plan_ends([pi]), plan_ends([pj]), *reach, st.clear_speed))
     in_i, out_i, in_j, out_j = occ
     gap = st.gap_for(ctx.in_game(ids[ki], ids[kj]))  # [s]
     if in_i >= out_j + gap or in_j >= out_i + gap:
         return  # the plans keep the crossing clear
     if lat.live and not (world.is_human(ki) or world.is_human(kj)):
         step.events.add((min(ids[ki], ids[kj]), max(ids[ki], ids[kj])))
-    lower_first = _ranked(ctx, step, lat, ki, kj, occ, block or (lat.zone_i[0], lat.zone_j[0]))
+    lower_first = _ranked(ctx, step, lat, ki, kj, occ, block)
     for n, c in enumerate(lower_first):
         other = lower_first[1 - n]
         if world.is_human(c.k):  # never made to yield; ranked below an AV in the box, SUMO makes it wait
