@@ -12,8 +12,8 @@ block's crossings, its plan taken on past the horizon at its final speed (at lea
 
 Trigger: a guarded crossing (a cross or confluence pair of the rows each vehicle takes, until one
 has left its zone) whose two occupancy intervals, by this look's plans (braked and clearing
-vehicles' plans replaced; taken on past the horizon as above), come closer than ``time_gap`` (``game_gap_share`` of it for a pair
-that plays its game this step: its margin is the game's).
+vehicles' plans replaced; taken on past the horizon as above), come closer than ``time_gap``
+(``game_gap_share`` of it for a pair that plays its game this step: its margin is the game's).
 
 Action: the lower-ranked vehicle stays out: it stops ``margin`` before its stop line if it has not
 reached it (it enters the junction only to clear it), else before the zone's block if it still can
