@@ -189,6 +189,10 @@ class StepContext:
                     time_to_conflict_point(zones[1][0] - float(world.s[kj]), float(world.v[kj]), floor))
         return in_i, in_j
 
+    def in_junction(self, k: int) -> bool:
+        """Whether vehicle k is in the entry queue (it entered the junction)."""
+        return self.world.ids[k] in self.entered
+
     def avs_entered(self) -> np.ndarray:
         """(len(world),) bool: the AVs in the entry queue (in the junction)."""
         world = self.world

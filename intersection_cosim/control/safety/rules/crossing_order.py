@@ -90,7 +90,7 @@ def maybe_close(ctx: StepContext, plans) -> tuple[np.ndarray, tuple | None]:
     e1, e2, e3, e4 = np.split(exact, 4)
     n_end = np.maximum(lengths - 1, 0)
     ends = PlanEnds(pos[np.arange(len(ks)), n_end], v_end, dt * n_end)  # per plan in ks
-    out = np.array([world.ids[int(k)] not in ctx.entered for k in ks])  # not yet in the junction
+    out = np.array([not ctx.in_junction(int(k)) for k in ks])  # not yet in the junction
     block_i, block_j = ctx.block_in  # [m]
     in_i, out_i, in_j, out_j = past_horizon(
         (in_i, out_i, in_j, out_j), zone_i, zone_j, PlanEnds(*(x[a] for x in ends)), PlanEnds(*(x[b] for x in ends)),
@@ -129,7 +129,7 @@ def guard(ctx: StepContext, step: FilterStep, lat: Lateral, occ: tuple | None = 
         return
     block = block or (lat.zone_i[0], lat.zone_j[0])
     if occ is None or math.isnan(occ[0]):
-        reach = [np.array([math.inf if ids[k] in ctx.entered else b]) for k, b in ((ki, block[0]), (kj, block[1]))]
+        reach = [np.array([math.inf if ctx.in_junction(k) else b]) for k, b in ((ki, block[0]), (kj, block[1]))]
         occ = tuple(float(x[0]) for x in past_horizon(
             [np.array([t]) for t in (*occupancy(pi, *lat.zone_i), *occupancy(pj, *lat.zone_j))],
             np.array([lat.zone_i]), np.array([lat.zone_j]),
